@@ -1,0 +1,76 @@
+"""Command-line plumbing shared by the baselines (absl flags).
+
+Every baseline reports bad input the same way: one line `error: <what is wrong>` on
+stderr and exit code 2 — for flags absl cannot parse as well as for values our own
+checks reject.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+
+from absl import app, flags
+
+
+class UsageError(Exception):
+    """A bad flag value or combination; reported as one line, exit code 2."""
+
+
+def fail(message: str) -> None:
+    """Prints `error: message` to stderr and exits with code 2."""
+    sys.stderr.write(f"error: {message}\n")
+    sys.stderr.flush()
+    raise SystemExit(2)
+
+
+def _parse_flags(argv: list[str]) -> list[str]:
+    try:
+        return flags.FLAGS(argv)
+    except flags.Error as e:
+        fail(str(e).splitlines()[0] if str(e) else "invalid flags")
+        raise  # unreachable
+
+
+def run(main: Callable[[list[str]], None]) -> None:
+    """`absl.app.run(main)` with one-line errors and exit code 2 for bad input."""
+
+    def wrapped(argv: list[str]) -> None:
+        if len(argv) > 1:
+            fail(f"unexpected arguments {argv[1:]}; all options are --flags")
+        try:
+            main(argv)
+        except UsageError as e:
+            fail(str(e))
+
+    app.run(wrapped, flags_parser=_parse_flags)
+
+
+def check(condition: bool, message: str) -> None:
+    """Raises `UsageError(message)` unless `condition` holds."""
+    if not condition:
+        raise UsageError(message)
+
+
+def parse_seeds(text: str) -> list[int]:
+    """Parses `"0-9"`, `"3"`, or `"0,2,5"` into a list of seeds.
+
+    Raises:
+      UsageError: If the text is malformed or a range is empty.
+    """
+    seeds: list[int] = []
+    try:
+        for part in str(text).split(","):
+            part = part.strip()
+            if "-" in part:
+                lo, hi = (int(v) for v in part.split("-"))
+                if hi < lo:
+                    raise ValueError
+                seeds.extend(range(lo, hi + 1))
+            else:
+                seeds.append(int(part))
+    except ValueError:
+        raise UsageError(f"malformed seeds {text!r}; use N, A-B or a comma list") from None
+    if any(s < 0 for s in seeds):
+        raise UsageError(f"seeds must be ≥ 0, got {text!r}")
+    return seeds

@@ -1,0 +1,196 @@
+"""Run directories (DESIGN Sec. 6): layout, atomic writes, progress files, config records.
+
+Layout: `<output_dir>/<method>/<task>/<run_name>/` holding `config.json`, `progress.csv`,
+`summary.json` and method-specific files. Every file except the append-only progress file
+is written to a temporary file and moved into place with `os.replace`, so a killed run never
+leaves a half-written file behind.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+
+class RunDirectoryExists(Exception):
+    """The run directory already holds a run and neither overwrite nor resume was asked."""
+
+
+def run_directory(output_dir: str, method: str, task: str, run_name: str, *,
+                  overwrite: bool = False, resume: bool = False) -> str:
+    """Creates (or reopens) `<output_dir>/<method>/<task>/<run_name>/`.
+
+    Args:
+      output_dir: Root of the output tree.
+      method: Method name, e.g. `q_learning`.
+      task: Task id or model name, e.g. `pole_balance`.
+      run_name: Name of this run.
+      overwrite: Empty an existing run directory first.
+      resume: Reuse an existing run directory as it is.
+
+    Returns:
+      The path of the run directory.
+
+    Raises:
+      RunDirectoryExists: If the directory holds files and neither flag is set.
+    """
+    path = os.path.join(output_dir, method, task, run_name)
+    if os.path.isdir(path) and os.listdir(path):
+        if overwrite:
+            for name in os.listdir(path):
+                full = os.path.join(path, name)
+                if os.path.isfile(full) or os.path.islink(full):
+                    os.remove(full)
+        elif not resume:
+            raise RunDirectoryExists(
+                f"run directory {path} already exists; pass --overwrite to replace it")
+    os.makedirs(path, exist_ok=True)
+    return path
+
+
+def _atomic_write_bytes(path: str, data: bytes) -> None:
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+
+
+def _to_jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _to_jsonable(obj.tolist())
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.floating):
+        return float(obj)
+    return obj
+
+
+def write_json(path: str, obj) -> None:
+    """Writes `obj` as indented JSON, atomically (numpy values are converted)."""
+    text = json.dumps(_to_jsonable(obj), indent=2, sort_keys=False) + "\n"
+    _atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def write_text(path: str, text: str) -> None:
+    """Writes text atomically."""
+    _atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def write_matrix_csv(path: str, matrix: np.ndarray, fmt: str = "%.6f") -> None:
+    """Writes a 2-D array as CSV without a header, atomically."""
+    buf = io.StringIO()
+    np.savetxt(buf, np.atleast_2d(matrix), fmt=fmt, delimiter=",")
+    write_text(path, buf.getvalue())
+
+
+def write_rows_csv(path: str, rows: list[dict]) -> None:
+    """Writes a list of dicts as a CSV with a header (keys of the first row), atomically."""
+    buf = io.StringIO()
+    if rows:
+        writer = csv.DictWriter(buf, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    write_text(path, buf.getvalue())
+
+
+def save_npy(path: str, array: np.ndarray) -> None:
+    """Saves a numpy array atomically."""
+    buf = io.BytesIO()
+    np.save(buf, np.asarray(array))
+    _atomic_write_bytes(path, buf.getvalue())
+
+
+def read_json(path: str):
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+class ProgressCSV:
+    """Append-only CSV, one row per round or episode, flushed after every row."""
+
+    def __init__(self, path: str, fieldnames: list[str], truncate: bool = True):
+        self.path = path
+        self.fieldnames = list(fieldnames)
+        exists = os.path.exists(path) and os.path.getsize(path) > 0
+        self._file = open(path, "w" if truncate or not exists else "a", newline="",
+                          encoding="utf-8")
+        self._writer = csv.DictWriter(self._file, fieldnames=self.fieldnames)
+        if truncate or not exists:
+            self._writer.writeheader()
+            self._file.flush()
+
+    def append(self, row: dict) -> None:
+        self._writer.writerow({k: _to_jsonable(row.get(k, "")) for k in self.fieldnames})
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _git_commit() -> str | None:
+    here = os.path.dirname(os.path.abspath(__file__))
+    try:
+        out = subprocess.run(["git", "-C", here, "rev-parse", "HEAD"], capture_output=True,
+                             text=True, timeout=5, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() or None if out.returncode == 0 else None
+
+
+def environment_record() -> dict:
+    """Versions of the package and its engines, the git commit if any, and the host."""
+    import dm_control
+    import mujoco
+
+    import cpg_suite
+
+    try:
+        from importlib.metadata import version
+        dm_control_version = version("dm-control")
+    except Exception:  # noqa: BLE001 - metadata is optional here.
+        dm_control_version = getattr(dm_control, "__version__", None)
+    return {
+        "cpg_suite_version": cpg_suite.__version__,
+        "mujoco_version": mujoco.__version__,
+        "dm_control_version": dm_control_version,
+        "numpy_version": np.__version__,
+        "python_version": platform.python_version(),
+        "git_commit": _git_commit(),
+        "command": " ".join([os.path.basename(sys.executable), "-m"] + sys.argv),
+        "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
+
+
+def write_config(run_dir: str, settings: dict) -> None:
+    """Writes `config.json`: every setting plus `environment_record()`."""
+    write_json(os.path.join(run_dir, "config.json"),
+               {"settings": settings, "environment": environment_record()})

@@ -1,0 +1,113 @@
+"""Pieces shared by the cpg_suite domains: assets, the task base class, action checks."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+from dm_control.suite import base as suite_base
+from dm_env import specs
+
+_XML_DIR = os.path.join(os.path.dirname(__file__), "xml")
+_COMMON_FILES = ("materials.xml", "skybox.xml", "visual.xml")
+
+
+def read_model(filename: str) -> str:
+    """Returns the text of an MJCF file in `cpg_suite/xml/`.
+
+    Args:
+      filename: File name relative to the `xml/` folder, e.g. `"pole.xml"`.
+
+    Returns:
+      The file's contents.
+    """
+    with open(os.path.join(_XML_DIR, filename), encoding="utf-8") as f:
+        return f.read()
+
+
+def _read_assets() -> dict[str, bytes]:
+    return {f"./common/{name}": read_model(os.path.join("common", name)).encode("utf-8")
+            for name in _COMMON_FILES}
+
+
+# Assets shared by every model (included as ./common/<name>.xml).
+ASSETS = _read_assets()
+
+
+def model_and_assets(filename: str) -> tuple[str, dict[str, bytes]]:
+    """Returns `(xml_string, assets)` for `Physics.from_xml_string`."""
+    return read_model(filename), ASSETS
+
+
+class Task(suite_base.Task):
+    """Base class of cpg_suite tasks.
+
+    Identical to `dm_control.suite.base.Task` except for reward visualization: our rewards
+    follow the study (metres, −θ², ...) and are not confined to [0, 1], so each task maps
+    its reward into [0, 1] with `reward_to_unit` before the colours are blended.
+    """
+
+    def reward_to_unit(self, reward: float) -> float:
+        """Maps a reward to [0, 1] for colouring (1 = best). Override per task."""
+        return float(np.clip(reward, 0.0, 1.0))
+
+    def after_step(self, physics) -> None:
+        if self._visualize_reward:
+            unit = float(np.clip(self.reward_to_unit(self.get_reward(physics)), 0.0, 1.0))
+            suite_base._set_reward_colors(physics, unit)  # noqa: SLF001 - shared helper.
+
+
+def check_continuous_action(action, spec: specs.BoundedArray) -> np.ndarray:
+    """Validates a continuous action and clips it to the spec's bounds.
+
+    Args:
+      action: Array-like action.
+      spec: The task's action spec.
+
+    Returns:
+      A float64 array of `spec.shape`, clipped to `[spec.minimum, spec.maximum]`.
+
+    Raises:
+      ValueError: If the shape differs from the spec's or a value is NaN or infinite.
+    """
+    try:
+        arr = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"action must be numeric with shape {spec.shape}, got {action!r}") from e
+    if arr.shape != spec.shape:
+        if arr.size == int(np.prod(spec.shape)) and arr.ndim <= 1:
+            arr = arr.reshape(spec.shape)
+        else:
+            raise ValueError(f"action has shape {arr.shape}, expected {spec.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"action contains NaN or infinite values: {arr!r}")
+    return np.clip(arr, spec.minimum, spec.maximum)
+
+
+def check_discrete_action(action, spec: specs.DiscreteArray) -> int:
+    """Validates a discrete action.
+
+    Args:
+      action: An integer (or an integral float, or a size-1 array of one).
+      spec: The task's `DiscreteArray` spec.
+
+    Returns:
+      The action as a Python int.
+
+    Raises:
+      ValueError: If the action is not a single integral value in `[0, num_values)`.
+    """
+    arr = np.asarray(action)
+    if arr.size != 1:
+        raise ValueError(
+            f"action must be a single integer in [0, {spec.num_values}), got shape {arr.shape}")
+    try:
+        value = float(arr.reshape(()))
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"action must be an integer, got {action!r}") from e
+    if not np.isfinite(value) or value != int(value):
+        raise ValueError(f"action must be an integer in [0, {spec.num_values}), got {value!r}")
+    index = int(value)
+    if not 0 <= index < spec.num_values:
+        raise ValueError(f"action {index} is out of range [0, {spec.num_values})")
+    return index

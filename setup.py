@@ -1,0 +1,54 @@
+"""cpg-suite: dm_control-style benchmark of RL for central pattern generators."""
+
+import os
+import re
+
+from setuptools import setup
+
+_HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def _version() -> str:
+    with open(os.path.join(_HERE, "cpg_suite", "__init__.py"), encoding="utf-8") as f:
+        return re.search(r'^__version__ = "([^"]+)"', f.read(), re.M).group(1)
+
+
+def _readme() -> str:
+    with open(os.path.join(_HERE, "README.md"), encoding="utf-8") as f:
+        return f.read()
+
+
+setup(
+    name="cpg-suite",
+    version=_version(),
+    description=("MuJoCo/dm_control benchmark from Duarte's study of reinforcement learning "
+                 "for central pattern generators: crawler, pole and DARwIn-OP tasks, the "
+                 "study's baselines and a leaderboard."),
+    long_description=_readme(),
+    long_description_content_type="text/markdown",
+    license="Apache-2.0",
+    python_requires=">=3.10",
+    packages=["cpg_suite", "baselines", "baselines.tabular", "analysis"],
+    package_data={
+        "cpg_suite": ["xml/*.xml", "xml/common/*.xml", "data/*.json", "data/*.md"],
+    },
+    # Ranges we have tested. dm-control 1.0.50 breaks with mujoco 4.x (flex_vertedge).
+    install_requires=[
+        "dm-control==1.0.50",
+        "mujoco>=3.17,<4",
+        "dm-env>=1.6,<2",
+        "numpy>=1.26,<3",
+        "absl-py>=1.4,<3",
+        "pandas>=2.0,<4",
+    ],
+    extras_require={
+        "test": ["pytest>=7,<10", "ruff>=0.5"],
+        "plots": ["matplotlib>=3.7,<4"],
+        "gym": ["gymnasium>=1.0,<2", "shimmy[dm-control]>=2.0,<3"],
+    },
+    classifiers=[
+        "Programming Language :: Python :: 3",
+        "License :: OSI Approved :: Apache Software License",
+        "Topic :: Scientific/Engineering :: Artificial Intelligence",
+    ],
+)
