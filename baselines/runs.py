@@ -176,7 +176,7 @@ def environment_record() -> dict:
     try:
         from importlib.metadata import version
         dm_control_version = version("dm-control")
-    except Exception:  # noqa: BLE001 - metadata is optional here.
+    except Exception:
         dm_control_version = getattr(dm_control, "__version__", None)
     return {
         "cpg_suite_version": cpg_suite.__version__,

@@ -21,9 +21,10 @@ import os
 if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
     os.environ["MUJOCO_GL"] = "egl"
 
-from dm_control.rl import control  # noqa: E402
+from dm_control.rl import control
 
-from cpg_suite import pole  # noqa: E402
+# Each domain module registers its tasks in its SUITE.
+from cpg_suite import pole  # noqa: F401
 
 __version__ = "0.1.0"
 

@@ -54,7 +54,7 @@ class Task(suite_base.Task):
     def after_step(self, physics) -> None:
         if self._visualize_reward:
             unit = float(np.clip(self.reward_to_unit(self.get_reward(physics)), 0.0, 1.0))
-            suite_base._set_reward_colors(physics, unit)  # noqa: SLF001 - shared helper.
+            suite_base._set_reward_colors(physics, unit)
 
 
 def check_continuous_action(action, spec: specs.BoundedArray) -> np.ndarray:

@@ -80,6 +80,10 @@ def _validate() -> dict:
         cli.check(_ALGO.value not in ("td0", "td_lambda") or not _TASK.value.startswith("pole"),
                   f"{_ALGO.value} learns state values and acts through a known successor "
                   "function, which the pole does not have; use q_learning, sarsa or sarsa_lambda")
+        cli.check(hasattr(cpg_suite.load(_TASK.value).action_spec(), "num_values"),
+                  f"{_TASK.value} has continuous actions; tabular methods need a discrete "
+                  "task such as pole_balance")
+        cli.check(_TASK.value.startswith("pole"), f"no discretizer is defined for {_TASK.value}")
     for name, flag in (("gamma", _GAMMA), ("alpha", _ALPHA), ("lam", _LAMBDA)):
         cli.check(0.0 <= flag.value <= 1.0, f"--{name} must lie in [0, 1], got {flag.value}")
     cli.check(0.0 <= _SLIP.value < 1.0, f"--slip must lie in [0, 1), got {_SLIP.value}")
@@ -193,20 +197,12 @@ def run_online_on_task(run_dir: str, settings: dict) -> dict:
     """A model-free learner on a discrete cpg_suite task through a discretizer."""
     seed = settings["seed"]
     task_kwargs = {"random": seed, "time_limit": float("inf")}
-    is_pole = settings["task"].startswith("pole")
-    if is_pole:
+    if settings["task"].startswith("pole"):
         task_kwargs.update(num_actions=settings["actions"], reward=settings["reward"])
         if settings["force"] is not None:
             task_kwargs["force"] = settings["force"]
-    try:
-        env = cpg_suite.load(settings["task"], task_kwargs=task_kwargs)
-    except TypeError as e:
-        raise cli.UsageError(f"{settings['task']} does not take these options: {e}") from None
+    env = cpg_suite.load(settings["task"], task_kwargs=task_kwargs)
     spec = env.action_spec()
-    cli.check(hasattr(spec, "num_values"),
-              f"{settings['task']} has continuous actions; tabular methods need a discrete "
-              "task such as pole_balance")
-    cli.check(is_pole, f"no discretizer is defined for {settings['task']}")
     to_state = discretize.pole_discretizer(discretize.parse_bins(settings["bins"]))
     learner = make_learner(settings["algo"], to_state.n_states, spec.num_values,
                            np.random.RandomState(seed))

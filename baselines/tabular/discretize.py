@@ -59,7 +59,8 @@ class Discretizer:
 
     def bin_centers(self, key_index: int) -> np.ndarray:
         """Centres of the bins of the `key_index`-th key."""
-        return self.low[key_index] + (np.arange(self.bins[key_index]) + 0.5) * self._width[key_index]
+        centers = np.arange(self.bins[key_index]) + 0.5
+        return self.low[key_index] + centers * self._width[key_index]
 
 
 def parse_bins(text: str) -> tuple[int, ...]:
@@ -69,7 +70,8 @@ def parse_bins(text: str) -> tuple[int, ...]:
       ValueError: If the text is not one or two positive integers joined by 'x'.
     """
     if not re.fullmatch(r"\s*\d+\s*(x\s*\d+\s*)?", str(text)):
-        raise ValueError(f"malformed bins {text!r}; use ANGLExVELOCITY like 20x20, or ANGLE like 100")
+        raise ValueError(
+            f"malformed bins {text!r}; use ANGLExVELOCITY like 20x20, or ANGLE like 100")
     bins = tuple(int(b) for b in str(text).split("x"))
     if any(b < 1 for b in bins):
         raise ValueError(f"bin counts must be ≥ 1, got {text!r}")
