@@ -1,0 +1,185 @@
+"""Runs one tabular experiment from a settings dict and writes its run directory.
+
+Shared by `python -m baselines.tabular` and the experiment scripts. `DEFAULTS` lists every
+setting; `execute(settings)` fills in the defaults, runs, and writes
+`<output_dir>/<algo>/<task or model>/<run_name>/` (DESIGN Sec. 6).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+
+import cpg_suite
+from baselines import runs
+from baselines.tabular import discretize, exploration, learners, model_env, models, planning
+from baselines.tabular.online import balance_metrics, run_online
+
+PLANNERS = ("value_iteration", "policy_iteration")
+ALGOS = PLANNERS + tuple(learners.LEARNERS)
+
+# Every setting of a tabular run and its default.
+DEFAULTS = {
+    "task": None, "model": None, "algo": "q_learning", "gamma": 0.9, "alpha": 0.1,
+    "lam": 0.9, "trace": "accumulating", "double_alpha": False, "epsilon": "0",
+    "steps": 20000, "sweeps": None, "iterations": None, "eval_sweeps": None, "tol": 1e-9,
+    "slip": 0.0, "bins": "20x20", "force": None, "actions": 3, "reward": "angle", "seed": 0,
+    "output_dir": "runs", "run_name": None, "overwrite": False,
+}
+
+
+def make_learner(settings: dict, n_states: int, n_actions: int, rng: np.random.RandomState,
+                 allowed: np.ndarray | None = None, successor=None,
+                 tie_order=None) -> learners.Learner:
+    """Builds the learner `settings["algo"]` with the settings' γ, α, λ, trace, double α."""
+    algo = settings["algo"]
+    kwargs = dict(rng=rng, allowed=allowed, tie_order=tie_order)
+    if algo in ("sarsa_lambda", "td_lambda"):
+        kwargs.update(lam=settings["lam"], trace=settings["trace"],
+                      double_alpha=settings["double_alpha"])
+    if algo in ("td0", "td_lambda"):
+        kwargs["successor"] = successor
+    return learners.LEARNERS[algo](n_states, n_actions, settings["gamma"], settings["alpha"],
+                                   **kwargs)
+
+
+def _cycle_summary(model: models.TabularModel, policy: np.ndarray) -> dict:
+    cycle = planning.policy_cycle(model, policy)
+    label = model.label
+    return {
+        "cycle": [list(label(s)) if model.grid_shape else label(s) for s in cycle.states],
+        "cycle_length": cycle.length,
+        "cycle_reward": cycle.reward,
+        "cycle_move_rewards": cycle.rewards,
+        "transient": [list(label(s)) if model.grid_shape else label(s) for s in cycle.transient],
+    }
+
+
+def _values_table(model: models.TabularModel, values: np.ndarray) -> np.ndarray:
+    return values.reshape(model.grid_shape) if model.grid_shape else values[None, :]
+
+
+def run_planner(run_dir: str, settings: dict, model: models.TabularModel) -> dict:
+    """Value or policy iteration on a complete model; writes values, history and progress."""
+    gamma = settings["gamma"]
+    if settings["algo"] == "value_iteration":
+        result = planning.value_iteration(model, gamma, sweeps=settings["sweeps"],
+                                          tol=settings["tol"])
+    else:
+        result = planning.policy_iteration(
+            model, gamma, np.random.RandomState(settings["seed"]),
+            eval_sweeps=settings["eval_sweeps"], iterations=settings["iterations"])
+    rows = []
+    for k in range(1, len(result.history)):
+        policy_k = planning.greedy_policy(model, result.history[k], gamma)
+        rows.append({"iteration": k,
+                     "max_change": float(np.abs(result.history[k] - result.history[k - 1]).max()),
+                     "start_value": float(result.history[k][model.start_state]),
+                     "cycle_length": planning.policy_cycle(model, policy_k).length})
+    runs.write_rows_csv(os.path.join(run_dir, "progress.csv"), rows)
+    runs.write_matrix_csv(os.path.join(run_dir, "values.csv"), _values_table(model, result.values))
+    runs.save_npy(os.path.join(run_dir, "values_history.npy"), np.array(result.history))
+    runs.write_matrix_csv(os.path.join(run_dir, "policy.csv"),
+                          _values_table(model, result.policy), fmt="%d")
+    summary = {"iterations": result.iterations, "converged": result.converged}
+    summary.update(_cycle_summary(model, result.policy))
+    return summary
+
+
+def run_online_on_model(run_dir: str, settings: dict, model: models.TabularModel) -> dict:
+    """A model-free learner on a `ModelEnvironment` sampling the model."""
+    seed = settings["seed"]
+    rng = np.random.RandomState(seed)
+    env = model_env.ModelEnvironment(model, random=np.random.RandomState(seed + 1_000_003))
+    learner = make_learner(settings, model.n_states, model.n_actions, rng,
+                           allowed=model.allowed, successor=model.intended_successor,
+                           tie_order=model.tie_order)
+    schedule = exploration.EpsilonSchedule.parse(settings["epsilon"])
+    result = run_online(env, learner, model_env.state_of, settings["steps"], schedule)
+    policy = np.array([learner.greedy(s) for s in range(model.n_states)])
+    runs.write_rows_csv(os.path.join(run_dir, "progress.csv"), [
+        {"step": t + 1, "state": int(result.states[t]), "action": int(result.actions[t]),
+         "reward": float(result.rewards[t])} for t in range(len(result.rewards))])
+    runs.write_matrix_csv(os.path.join(run_dir, "values.csv"),
+                          _values_table(model, learner.state_values()))
+    runs.save_npy(os.path.join(run_dir, "table.npy"),
+                  learner.v if learner.learns == "V" else learner.q)
+    summary = {"steps": settings["steps"], "return": float(result.rewards.sum())}
+    summary.update(_cycle_summary(model, policy))
+    return summary
+
+
+def run_online_on_task(run_dir: str, settings: dict) -> dict:
+    """A model-free learner on a discrete cpg_suite task through a discretizer."""
+    seed = settings["seed"]
+    task_kwargs = {"random": seed, "time_limit": float("inf")}
+    if settings["task"].startswith("pole"):
+        task_kwargs.update(num_actions=settings["actions"], reward=settings["reward"])
+        if settings["force"] is not None:
+            task_kwargs["force"] = settings["force"]
+    env = cpg_suite.load(settings["task"], task_kwargs=task_kwargs)
+    spec = env.action_spec()
+    to_state = discretize.pole_discretizer(discretize.parse_bins(settings["bins"]))
+    learner = make_learner(settings, to_state.n_states, spec.num_values,
+                           np.random.RandomState(seed))
+    schedule = exploration.EpsilonSchedule.parse(settings["epsilon"])
+    fields = ["episode", "start_step", "end_step", "length", "fell", "return"]
+    with runs.ProgressCSV(os.path.join(run_dir, "progress.csv"), fields) as progress:
+        result = run_online(env, learner, to_state, settings["steps"], schedule,
+                            record=("angle", "angular_velocity"),
+                            on_episode=lambda ep: progress.append({
+                                "episode": ep.index, "start_step": ep.start_step,
+                                "end_step": ep.end_step, "length": ep.length,
+                                "fell": int(ep.fell), "return": ep.episode_return}))
+    runs.save_npy(os.path.join(run_dir, "angles.npy"),
+                  result.observations["angle"].astype(np.float32))
+    runs.save_npy(os.path.join(run_dir, "actions.npy"), result.actions.astype(np.int8))
+    runs.save_npy(os.path.join(run_dir, "q_table.npy"),
+                  learner.q.reshape(to_state.bins + (spec.num_values,)))
+    summary = balance_metrics(result, last=5000)
+    summary["physics_steps"] = settings["steps"] * int(round(
+        env.control_timestep() / env.physics.model.opt.timestep))
+    summary["return"] = float(result.rewards.sum())
+    return summary
+
+
+def execute(settings: dict, resume: bool = False) -> tuple[str, dict]:
+    """Runs one experiment and writes its run directory.
+
+    Args:
+      settings: Settings (missing keys take `DEFAULTS`); assumed valid.
+      resume: If the run directory already holds a `summary.json`, return it without
+        running again (a finished run is never repeated).
+
+    Returns:
+      `(run_dir, summary)`.
+
+    Raises:
+      runs.RunDirectoryExists: If the run directory exists and neither `overwrite` nor
+        `resume` applies.
+    """
+    settings = {**DEFAULTS, **settings}
+    task = settings["task"] or settings["model"]
+    run_name = settings["run_name"] or f"seed{settings['seed']}"
+    summary_path = os.path.join(settings["output_dir"], settings["algo"], task, run_name,
+                                "summary.json")
+    if resume and os.path.exists(summary_path):
+        return os.path.dirname(summary_path), runs.read_json(summary_path)
+    run_dir = runs.run_directory(settings["output_dir"], settings["algo"], task, run_name,
+                                 overwrite=settings["overwrite"] or resume)
+    runs.write_config(run_dir, settings)
+    start = time.perf_counter()
+    if settings["model"] is not None:
+        model = models.MODELS[settings["model"]](slip=settings["slip"])
+        if settings["algo"] in PLANNERS:
+            summary = run_planner(run_dir, settings, model)
+        else:
+            summary = run_online_on_model(run_dir, settings, model)
+    else:
+        summary = run_online_on_task(run_dir, settings)
+    summary = {"method": settings["algo"], "task": task, "seed": settings["seed"], **summary,
+               "wall_s": time.perf_counter() - start}
+    runs.write_json(os.path.join(run_dir, "summary.json"), summary)
+    return run_dir, summary
