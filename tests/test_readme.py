@@ -1,0 +1,26 @@
+"""The README's code runs as written."""
+
+import os
+import re
+
+README = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "README.md")
+
+
+def _blocks(language):
+    with open(README, encoding="utf-8") as f:
+        return re.findall(rf"```{language}\n(.*?)```", f.read(), flags=re.S)
+
+
+def test_python_examples_run():
+    blocks = _blocks("python")
+    assert blocks
+    for code in blocks:
+        exec(compile(code, README, "exec"), {"__name__": "__readme__"})
+
+
+def test_quick_start_has_exactly_two_commands():
+    quick = _blocks("bash")[0]
+    commands = [line for line in quick.splitlines() if line and not line.startswith("#")]
+    assert len(commands) == 2
+    assert commands[0].startswith("pip install . && python -m baselines.")
+    assert commands[1].startswith('pip install ".[test]" && pytest')
