@@ -21,9 +21,11 @@ def _readme() -> str:
 setup(
     name="cpg-suite",
     version=_version(),
-    description=("MuJoCo/dm_control benchmark from Duarte's study of reinforcement learning "
-                 "for central pattern generators: crawler, pole and DARwIn-OP tasks, the "
-                 "study's baselines and a leaderboard."),
+    description=(
+        "MuJoCo/dm_control benchmark from Duarte's study of reinforcement learning "
+        "for central pattern generators: crawler, pole and DARwIn-OP tasks, the "
+        "study's baselines and a leaderboard."
+    ),
     long_description=_readme(),
     long_description_content_type="text/markdown",
     license="Apache-2.0",

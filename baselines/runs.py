@@ -25,8 +25,15 @@ class RunDirectoryExists(Exception):
     """The run directory already holds a run and neither overwrite nor resume was asked."""
 
 
-def run_directory(output_dir: str, method: str, task: str, run_name: str, *,
-                  overwrite: bool = False, resume: bool = False) -> str:
+def run_directory(
+    output_dir: str,
+    method: str,
+    task: str,
+    run_name: str,
+    *,
+    overwrite: bool = False,
+    resume: bool = False,
+) -> str:
     """Creates (or reopens) `<output_dir>/<method>/<task>/<run_name>/`.
 
     Args:
@@ -52,7 +59,8 @@ def run_directory(output_dir: str, method: str, task: str, run_name: str, *,
                     os.remove(full)
         elif not resume:
             raise RunDirectoryExists(
-                f"run directory {path} already exists; pass --overwrite to replace it")
+                f"run directory {path} already exists; pass --overwrite to replace it"
+            )
     os.makedirs(path, exist_ok=True)
     return path
 
@@ -135,8 +143,9 @@ class ProgressCSV:
         self.path = path
         self.fieldnames = list(fieldnames)
         exists = os.path.exists(path) and os.path.getsize(path) > 0
-        self._file = open(path, "w" if truncate or not exists else "a", newline="",
-                          encoding="utf-8")
+        self._file = open(
+            path, "w" if truncate or not exists else "a", newline="", encoding="utf-8"
+        )
         self._writer = csv.DictWriter(self._file, fieldnames=self.fieldnames)
         if truncate or not exists:
             self._writer.writeheader()
@@ -159,8 +168,13 @@ class ProgressCSV:
 def _git_commit() -> str | None:
     here = os.path.dirname(os.path.abspath(__file__))
     try:
-        out = subprocess.run(["git", "-C", here, "rev-parse", "HEAD"], capture_output=True,
-                             text=True, timeout=5, check=False)
+        out = subprocess.run(
+            ["git", "-C", here, "rev-parse", "HEAD"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=False,
+        )
     except (OSError, subprocess.SubprocessError):
         return None
     return out.stdout.strip() or None if out.returncode == 0 else None
@@ -175,6 +189,7 @@ def environment_record() -> dict:
 
     try:
         from importlib.metadata import version
+
         dm_control_version = version("dm-control")
     except Exception:
         dm_control_version = getattr(dm_control, "__version__", None)
@@ -192,5 +207,7 @@ def environment_record() -> dict:
 
 def write_config(run_dir: str, settings: dict) -> None:
     """Writes `config.json`: every setting plus `environment_record()`."""
-    write_json(os.path.join(run_dir, "config.json"),
-               {"settings": settings, "environment": environment_record()})
+    write_json(
+        os.path.join(run_dir, "config.json"),
+        {"settings": settings, "environment": environment_record()},
+    )

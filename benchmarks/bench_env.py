@@ -94,8 +94,10 @@ def main() -> None:
     for t in tasks:
         cpg_suite.split_task_id(t)  # Raises with the valid ids.
 
-    header = (f"{'task':28s} {'substeps':>8s} {'env steps/s':>12s} {'raw steps/s':>12s} "
-              f"{'env/raw':>8s} {'peer':>18s} {'peer steps/s':>13s} {'env/peer':>9s}")
+    header = (
+        f"{'task':28s} {'substeps':>8s} {'env steps/s':>12s} {'raw steps/s':>12s} "
+        f"{'env/raw':>8s} {'peer':>18s} {'peer steps/s':>13s} {'env/peer':>9s}"
+    )
     print(header)
     print("-" * len(header))
     peer_rates = {}
@@ -115,8 +117,11 @@ def main() -> None:
                 peer_env = suite.load(*peer, task_kwargs={"random": 0})
                 peer_rates[peer] = time_env(peer_env, args.steps, args.repeats)
             peer_rate = peer_rates[peer]
-        print(f"{task_id:28s} {n_sub:8d} {rate:12.0f} {raw:12.0f} {rate / raw:8.3f} "
-              f"{peer_name:>18s} {peer_rate:13.0f} {rate / peer_rate:9.2f}", flush=True)
+        print(
+            f"{task_id:28s} {n_sub:8d} {rate:12.0f} {raw:12.0f} {rate / raw:8.3f} "
+            f"{peer_name:>18s} {peer_rate:13.0f} {rate / peer_rate:9.2f}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

@@ -28,8 +28,11 @@ from cpg_suite import pole  # noqa: F401
 
 __version__ = "0.1.0"
 
-_DOMAINS = {name: module for name, module in locals().items()
-            if inspect.ismodule(module) and hasattr(module, "SUITE")}
+_DOMAINS = {
+    name: module
+    for name, module in locals().items()
+    if inspect.ismodule(module) and hasattr(module, "SUITE")
+}
 
 
 def _get_tasks(tag: str | None) -> tuple[tuple[str, str], ...]:
@@ -72,9 +75,13 @@ def split_task_id(task_id: str) -> tuple[str, str]:
     return domain, task
 
 
-def load(domain_name: str, task_name: str | None = None, task_kwargs: dict | None = None,
-         environment_kwargs: dict | None = None,
-         visualize_reward: bool = False) -> control.Environment:
+def load(
+    domain_name: str,
+    task_name: str | None = None,
+    task_kwargs: dict | None = None,
+    environment_kwargs: dict | None = None,
+    visualize_reward: bool = False,
+) -> control.Environment:
     """Returns a task's environment, like `dm_control.suite.load`.
 
     `load('pole_balance')` and `load('pole', 'balance')` are the same.
@@ -95,8 +102,9 @@ def load(domain_name: str, task_name: str | None = None, task_kwargs: dict | Non
     if task_name is None:
         domain_name, task_name = split_task_id(domain_name)
     elif (domain_name, task_name) not in ALL_TASKS:
-        raise ValueError(f"unknown task {domain_name!r}/{task_name!r}; "
-                         f"valid tasks: {', '.join(TASK_IDS)}")
+        raise ValueError(
+            f"unknown task {domain_name!r}/{task_name!r}; valid tasks: {', '.join(TASK_IDS)}"
+        )
     task_kwargs = dict(task_kwargs or {})
     if environment_kwargs is not None:
         task_kwargs["environment_kwargs"] = environment_kwargs

@@ -26,8 +26,10 @@ def read_model(filename: str) -> str:
 
 
 def _read_assets() -> dict[str, bytes]:
-    return {f"./common/{name}": read_model(os.path.join("common", name)).encode("utf-8")
-            for name in _COMMON_FILES}
+    return {
+        f"./common/{name}": read_model(os.path.join("common", name)).encode("utf-8")
+        for name in _COMMON_FILES
+    }
 
 
 # Assets shared by every model (included as ./common/<name>.xml).
@@ -100,7 +102,8 @@ def check_discrete_action(action, spec: specs.DiscreteArray) -> int:
     arr = np.asarray(action)
     if arr.size != 1:
         raise ValueError(
-            f"action must be a single integer in [0, {spec.num_values}), got shape {arr.shape}")
+            f"action must be a single integer in [0, {spec.num_values}), got shape {arr.shape}"
+        )
     try:
         value = float(arr.reshape(()))
     except (TypeError, ValueError) as e:

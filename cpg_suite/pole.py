@@ -48,9 +48,14 @@ def get_model_and_assets() -> tuple[str, dict[str, bytes]]:
 
 
 @SUITE.add("benchmarking")
-def balance(time_limit: float = _DEFAULT_TIME_LIMIT, random=None, force: float = _DEFAULT_FORCE,
-            num_actions: int = 3, reward: str = "angle",
-            environment_kwargs: dict | None = None) -> control.Environment:
+def balance(
+    time_limit: float = _DEFAULT_TIME_LIMIT,
+    random=None,
+    force: float = _DEFAULT_FORCE,
+    num_actions: int = 3,
+    reward: str = "angle",
+    environment_kwargs: dict | None = None,
+) -> control.Environment:
     """Returns the discrete pole balance task (thesis Sec. 4.2).
 
     Args:
@@ -67,15 +72,20 @@ def balance(time_limit: float = _DEFAULT_TIME_LIMIT, random=None, force: float =
       A `control.Environment`.
     """
     physics = Physics.from_xml_string(*get_model_and_assets())
-    task = Balance(discrete=True, force=force, num_actions=num_actions, reward=reward,
-                   random=random)
+    task = Balance(
+        discrete=True, force=force, num_actions=num_actions, reward=reward, random=random
+    )
     return _environment(physics, task, time_limit, environment_kwargs)
 
 
 @SUITE.add("benchmarking")
-def balance_continuous(time_limit: float = _DEFAULT_TIME_LIMIT, random=None,
-                       force: float = _DEFAULT_FORCE, reward: str = "angle",
-                       environment_kwargs: dict | None = None) -> control.Environment:
+def balance_continuous(
+    time_limit: float = _DEFAULT_TIME_LIMIT,
+    random=None,
+    force: float = _DEFAULT_FORCE,
+    reward: str = "angle",
+    environment_kwargs: dict | None = None,
+) -> control.Environment:
     """Returns the continuous pole balance task: action in [−1, 1] scales the force `force`.
 
     Args:
@@ -145,8 +155,14 @@ class Physics(mujoco.Physics):
 class Balance(base.Task):
     """Keep the pole upright; reward −θ² per control step (thesis Sec. 4.2.1)."""
 
-    def __init__(self, discrete: bool, force: float = _DEFAULT_FORCE, num_actions: int = 3,
-                 reward: str = "angle", random=None):
+    def __init__(
+        self,
+        discrete: bool,
+        force: float = _DEFAULT_FORCE,
+        num_actions: int = 3,
+        reward: str = "angle",
+        random=None,
+    ):
         """Initializes the task.
 
         Args:
@@ -169,8 +185,9 @@ class Balance(base.Task):
         self._force = float(force)
         self._reward = reward
         if discrete:
-            self._forces = (np.array([-1.0, 0.0, 1.0]) if num_actions == 3
-                            else np.array([-1.0, 1.0])) * self._force
+            self._forces = (
+                np.array([-1.0, 0.0, 1.0]) if num_actions == 3 else np.array([-1.0, 1.0])
+            ) * self._force
             self._action_spec = specs.DiscreteArray(num_actions, dtype=np.int64, name="push")
         else:
             self._action_spec = specs.BoundedArray((1,), np.float64, -1.0, 1.0, name="push")
@@ -223,4 +240,4 @@ class Balance(base.Task):
         return None
 
     def reward_to_unit(self, reward: float) -> float:
-        return 1.0 + reward / (_FALL_ANGLE ** 2)
+        return 1.0 + reward / (_FALL_ANGLE**2)

@@ -41,7 +41,7 @@ def test_pole_leaning_right_falls_right_and_terminates():
             break
     assert ts.observation["angle"][0] > np.pi / 2
     assert ts.discount == 0.0
-    assert ts.reward == pytest.approx(-ts.observation["angle"][0] ** 2)
+    assert ts.reward == pytest.approx(-(ts.observation["angle"][0] ** 2))
     assert steps < 100
 
 
@@ -49,7 +49,7 @@ def test_reward_is_minus_angle_squared():
     env = _env()
     env.reset()
     ts = env.step(0)
-    assert ts.reward == pytest.approx(-env.physics.pole_angle() ** 2)
+    assert ts.reward == pytest.approx(-(env.physics.pole_angle() ** 2))
 
 
 def test_approach_reward_sign():
@@ -57,7 +57,7 @@ def test_approach_reward_sign():
     env.reset()
     env.physics.set_pole_angle(0.1)
     ts = env.step(1)  # Falling away from upright.
-    assert ts.reward == pytest.approx(-ts.observation["angle"][0] ** 2 - 0.05)
+    assert ts.reward == pytest.approx(-(ts.observation["angle"][0] ** 2) - 0.05)
 
 
 def test_forces_of_the_action_sets():
@@ -78,8 +78,9 @@ def test_continuous_action_scales_force():
 @pytest.mark.parametrize("force", [0.5, 4.0])
 def test_both_forces_can_balance_the_pole(force):
     """A simple bang-bang rule on θ + 0.1 θ̇ keeps the pole up for 60 s with either force."""
-    env = cpg_suite.load("pole_balance", task_kwargs={"random": 0, "force": force,
-                                                      "time_limit": 60.0})
+    env = cpg_suite.load(
+        "pole_balance", task_kwargs={"random": 0, "force": force, "time_limit": 60.0}
+    )
     ts = env.reset()
     steps = 0
     while not ts.last():

@@ -24,8 +24,9 @@ def test_load_by_id_equals_load_by_pair():
         assert ta.reward == tb.reward
 
 
-@pytest.mark.parametrize("args", [("pole_swingup",), ("walker_walk",), ("pole", "nope"),
-                                  ("nodomain", "balance"), ("",)])
+@pytest.mark.parametrize(
+    "args", [("pole_swingup",), ("walker_walk",), ("pole", "nope"), ("nodomain", "balance"), ("",)]
+)
 def test_unknown_task_lists_valid_ids(args):
     with pytest.raises(ValueError) as err:
         cpg_suite.load(*args)

@@ -58,11 +58,24 @@ def test_constants():
 def test_components_have_names(task_id):
     model = cpg_suite.load(task_id).physics.model
     for object_type, size_field in [
-            ("body", "nbody"), ("joint", "njnt"), ("geom", "ngeom"), ("site", "nsite"),
-            ("camera", "ncam"), ("light", "nlight"), ("mesh", "nmesh"), ("hfield", "nhfield"),
-            ("texture", "ntex"), ("material", "nmat"), ("equality", "neq"),
-            ("tendon", "ntendon"), ("actuator", "nu"), ("sensor", "nsensor"),
-            ("numeric", "nnumeric"), ("text", "ntext"), ("tuple", "ntuple")]:
+        ("body", "nbody"),
+        ("joint", "njnt"),
+        ("geom", "ngeom"),
+        ("site", "nsite"),
+        ("camera", "ncam"),
+        ("light", "nlight"),
+        ("mesh", "nmesh"),
+        ("hfield", "nhfield"),
+        ("texture", "ntex"),
+        ("material", "nmat"),
+        ("equality", "neq"),
+        ("tendon", "ntendon"),
+        ("actuator", "nu"),
+        ("sensor", "nsensor"),
+        ("numeric", "nnumeric"),
+        ("text", "ntext"),
+        ("tuple", "ntuple"),
+    ]:
         for idx in range(getattr(model, size_field)):
             assert model.id2name(idx, object_type), f"unnamed {object_type} {idx} in {task_id}"
 
@@ -117,7 +130,7 @@ def test_environment_is_deterministic(task_id):
 def _assert_correct_colors(physics, unit):
     colors = physics.named.model.mat_rgba
     for name in ("self", "effector", "target"):
-        blend = unit ** 4
+        blend = unit**4
         expected = blend * colors[name + "_highlight"] + (1 - blend) * colors[name + "_default"]
         np.testing.assert_array_almost_equal(expected, colors[name], err_msg=name)
 
@@ -125,8 +138,11 @@ def _assert_correct_colors(physics, unit):
 @pytest.mark.parametrize("task_id", [f"{d}_{t}" for d, t in cpg_suite.REWARD_VIZ])
 def test_visualize_reward(task_id):
     env = cpg_suite.load(task_id, visualize_reward=True)
-    action = (0 if isinstance(env.action_spec(), specs.DiscreteArray)
-              else np.zeros(env.action_spec().shape))
+    action = (
+        0
+        if isinstance(env.action_spec(), specs.DiscreteArray)
+        else np.zeros(env.action_spec().shape)
+    )
     task = env.task
     for value in (-3.0, 0.0, 0.5, 2.0, -1e-3):
         with mock.patch.object(task, "get_reward", return_value=value) as get_reward:
@@ -150,8 +166,11 @@ def test_task_supports_environment_kwargs(task_id):
 def test_observation_arrays_dont_share_memory(task_id):
     env = cpg_suite.load(task_id)
     first = env.reset()
-    action = (0 if isinstance(env.action_spec(), specs.DiscreteArray)
-              else np.zeros(env.action_spec().shape))
+    action = (
+        0
+        if isinstance(env.action_spec(), specs.DiscreteArray)
+        else np.zeros(env.action_spec().shape)
+    )
     second = env.step(action)
     for name, arr in first.observation.items():
         assert not np.may_share_memory(arr, second.observation[name]), name
@@ -182,6 +201,6 @@ def test_factory_signature(task_id):
     """Factories take (time_limit, random, environment_kwargs) as in dm_control."""
     domain, task = cpg_suite.split_task_id(task_id)
     factory = cpg_suite._DOMAINS[domain].SUITE[task]
-    params = factory.__code__.co_varnames[:factory.__code__.co_argcount]
+    params = factory.__code__.co_varnames[: factory.__code__.co_argcount]
     for name in ("time_limit", "random", "environment_kwargs"):
         assert name in params

@@ -12,14 +12,23 @@ from baselines.tabular import models, planning
 
 def run_cli(*args):
     """Runs the installed `baselines.tabular` module in a fresh interpreter."""
-    return subprocess.run([sys.executable, "-m", "baselines.tabular", *args], capture_output=True,
-                          text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "baselines.tabular", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
 
 
 def test_value_iteration_two_sweeps_writes_the_library_values(tmp_path):
     """values.csv holds V after 2 sweeps (= thesis Table A.3, see test_tabular_planning)."""
-    out = run_cli("--model=tokic", "--algo=value_iteration", "--gamma=0.9", "--sweeps=2",
-                  f"--output_dir={tmp_path}")
+    out = run_cli(
+        "--model=tokic",
+        "--algo=value_iteration",
+        "--gamma=0.9",
+        "--sweeps=2",
+        f"--output_dir={tmp_path}",
+    )
     assert out.returncode == 0, out.stderr
     run_dir = tmp_path / "value_iteration" / "tokic" / "seed0"
     values = np.loadtxt(run_dir / "values.csv", delimiter=",")
@@ -42,8 +51,16 @@ def test_value_iteration_converged_cycle(tmp_path):
 
 
 def test_pole_q_learning_run_files(tmp_path):
-    out = run_cli("--task=pole_balance", "--algo=q_learning", "--steps=3000", "--alpha=0.01",
-                  "--gamma=0.9", "--bins=20x20", "--seed=0", f"--output_dir={tmp_path}")
+    out = run_cli(
+        "--task=pole_balance",
+        "--algo=q_learning",
+        "--steps=3000",
+        "--alpha=0.01",
+        "--gamma=0.9",
+        "--bins=20x20",
+        "--seed=0",
+        f"--output_dir={tmp_path}",
+    )
     assert out.returncode == 0, out.stderr
     run_dir = tmp_path / "q_learning" / "pole_balance" / "seed0"
     summary = json.loads((run_dir / "summary.json").read_text())
@@ -67,25 +84,28 @@ def test_existing_run_directory_is_not_overwritten(tmp_path):
     assert run_cli(*args, "--overwrite").returncode == 0
 
 
-@pytest.mark.parametrize("args, words", [
-    (["--task=pole_swingup"], "unknown task"),
-    (["--model=nope"], "unknown --model"),
-    (["--model=tokic", "--algo=deep_q"], "unknown --algo"),
-    (["--task=pole_balance", "--bins=20x"], "malformed bins"),
-    (["--task=pole_balance", "--bins=axb"], "malformed bins"),
-    (["--task=pole_balance", "--alpha=1.5"], "--alpha must lie in [0, 1]"),
-    (["--task=pole_balance", "--alpha=-0.1"], "--alpha must lie in [0, 1]"),
-    (["--task=pole_balance", "--gamma=2"], "--gamma must lie in [0, 1]"),
-    (["--task=pole_balance", "--gamma=abc"], "gamma"),
-    (["--task=pole_balance", "--epsilon=0:2"], "ε"),
-    (["--task=pole_balance", "--algo=value_iteration"], "complete model"),
-    (["--task=pole_balance", "--algo=td0"], "successor"),
-    (["--task=pole_balance_continuous"], "continuous"),
-    (["--model=tokic", "--task=pole_balance"], "exactly one"),
-    ([], "exactly one"),
-    (["--task=pole_balance", "--no_such_flag=1"], "no_such_flag"),
-    (["--task=pole_balance", "--force=-4"], "--force"),
-])
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--task=pole_swingup"], "unknown task"),
+        (["--model=nope"], "unknown --model"),
+        (["--model=tokic", "--algo=deep_q"], "unknown --algo"),
+        (["--task=pole_balance", "--bins=20x"], "malformed bins"),
+        (["--task=pole_balance", "--bins=axb"], "malformed bins"),
+        (["--task=pole_balance", "--alpha=1.5"], "--alpha must lie in [0, 1]"),
+        (["--task=pole_balance", "--alpha=-0.1"], "--alpha must lie in [0, 1]"),
+        (["--task=pole_balance", "--gamma=2"], "--gamma must lie in [0, 1]"),
+        (["--task=pole_balance", "--gamma=abc"], "gamma"),
+        (["--task=pole_balance", "--epsilon=0:2"], "ε"),
+        (["--task=pole_balance", "--algo=value_iteration"], "complete model"),
+        (["--task=pole_balance", "--algo=td0"], "successor"),
+        (["--task=pole_balance_continuous"], "continuous"),
+        (["--model=tokic", "--task=pole_balance"], "exactly one"),
+        ([], "exactly one"),
+        (["--task=pole_balance", "--no_such_flag=1"], "no_such_flag"),
+        (["--task=pole_balance", "--force=-4"], "--force"),
+    ],
+)
 def test_bad_input_one_line_exit_2(tmp_path, args, words):
     out = run_cli(*args, f"--output_dir={tmp_path}")
     assert out.returncode == 2, (out.returncode, out.stderr)

@@ -60,9 +60,10 @@ def _chain_successor(s, a):
     return (s + 1) % 2
 
 
-@pytest.mark.parametrize("cls, kwargs", [(learners.TD0, {}),
-                                         (learners.TDLambda, {"lam": 0.0}),
-                                         (learners.TDLambda, {"lam": 0.8})])
+@pytest.mark.parametrize(
+    "cls, kwargs",
+    [(learners.TD0, {}), (learners.TDLambda, {"lam": 0.0}), (learners.TDLambda, {"lam": 0.8})],
+)
 def test_td_learners_recover_a_known_value_function(cls, kwargs):
     """Two states alternating with rewards 1 and 0: V(0) = 1/(1-γ²), V(1) = γ V(0)."""
     gamma = 0.5
@@ -72,14 +73,15 @@ def test_td_learners_recover_a_known_value_function(cls, kwargs):
         s2 = 1 - s
         td.update(s, 0, 1.0 if s == 0 else 0.0, s2, 1.0)
         s = s2
-    v0 = 1 / (1 - gamma ** 2)
+    v0 = 1 / (1 - gamma**2)
     np.testing.assert_allclose(td.v, [v0, gamma * v0], rtol=1e-2)
 
 
 def test_td_lambda_zero_equals_td0():
     a = learners.TD0(2, 1, 0.9, 0.3, np.random.RandomState(0), successor=_chain_successor)
-    b = learners.TDLambda(2, 1, 0.9, 0.3, np.random.RandomState(0), successor=_chain_successor,
-                          lam=0.0)
+    b = learners.TDLambda(
+        2, 1, 0.9, 0.3, np.random.RandomState(0), successor=_chain_successor, lam=0.0
+    )
     for t in range(50):
         s = t % 2
         a.update(s, 0, float(s), 1 - s, 1.0)
@@ -93,8 +95,7 @@ def test_v_learners_need_a_successor():
 
 
 def test_v_learners_act_on_one_step_lookahead():
-    td = learners.TD0(3, 2, 0.9, 0.3, np.random.RandomState(0),
-                      successor=lambda s, a: a + 1)
+    td = learners.TD0(3, 2, 0.9, 0.3, np.random.RandomState(0), successor=lambda s, a: a + 1)
     td.v[:] = [0.0, 1.0, 5.0]
     assert td.greedy(0) == 1
     td.r_hat[0, 0] = 10.0
@@ -114,7 +115,8 @@ def test_bad_hyperparameters():
 def test_epsilon_schedule_of_the_study():
     sched = exploration.EpsilonSchedule.parse("0:0.9,100:0.9,300:0")
     assert [sched(t) for t in (0, 50, 100, 200, 300, 10_000)] == pytest.approx(
-        [0.9, 0.9, 0.9, 0.45, 0.0, 0.0])
+        [0.9, 0.9, 0.9, 0.45, 0.0, 0.0]
+    )
     assert exploration.EpsilonSchedule.parse("0.1")(12345) == 0.1
 
 
@@ -182,8 +184,9 @@ def _pole_run(seed, steps=3000):
     env = cpg_suite.load("pole_balance", task_kwargs={"random": seed, "time_limit": float("inf")})
     disc = discretize.pole_discretizer((20, 20))
     learner = learners.QLearning(disc.n_states, 3, 0.9, 0.01, np.random.RandomState(seed))
-    return run_online(env, learner, disc, steps, exploration.EpsilonSchedule.constant(0.05),
-                      record=("angle",))
+    return run_online(
+        env, learner, disc, steps, exploration.EpsilonSchedule.constant(0.05), record=("angle",)
+    )
 
 
 def test_online_run_is_deterministic():
@@ -211,6 +214,7 @@ def test_q_learning_balances_the_pole_seed0():
     env = cpg_suite.load("pole_balance", task_kwargs={"random": 0, "time_limit": float("inf")})
     disc = discretize.pole_discretizer((20, 20))
     learner = learners.QLearning(disc.n_states, 3, 0.9, 0.01, np.random.RandomState(0))
-    result = run_online(env, learner, disc, 20000, exploration.EpsilonSchedule.constant(0.0),
-                        record=("angle",))
+    result = run_online(
+        env, learner, disc, 20000, exploration.EpsilonSchedule.constant(0.0), record=("angle",)
+    )
     assert balance_metrics(result)["balanced_last_5000"]

@@ -6,18 +6,24 @@ import pytest
 from baselines.tabular import models, planning
 
 # Thesis Appendix, Table A.2 (after sweep 1) and Table A.3 (after sweep 2), γ = 0.9.
-TABLE_A2 = np.array([
-    [0.000000, 0.000000, 0.000000, 0.000000, 0.000000],
-    [0.000000, 0.000000, 0.000000, 0.000000, 0.000000],
-    [1.000000, 10.000000, 9.000000, 8.100000, 7.290000],
-    [46.000000, 59.400000, 85.460000, 105.914000, 96.322600],
-    [-14.600000, -7.140000, 28.914000, 72.022600, 107.820340]])
-TABLE_A3 = np.array([
-    [0.000000, 0.000000, 0.000000, 0.000000, 0.000000],
-    [0.000000, 9.000000, 8.100000, 7.290000, 6.561000],
-    [42.400000, 63.460000, 82.914000, 94.322600, 86.690340],
-    [35.160000, 49.644000, 76.679600, 104.820340, 113.038306],
-    [-24.356000, -1.977400, 26.220340, 69.598306, 105.638475]])
+TABLE_A2 = np.array(
+    [
+        [0.000000, 0.000000, 0.000000, 0.000000, 0.000000],
+        [0.000000, 0.000000, 0.000000, 0.000000, 0.000000],
+        [1.000000, 10.000000, 9.000000, 8.100000, 7.290000],
+        [46.000000, 59.400000, 85.460000, 105.914000, 96.322600],
+        [-14.600000, -7.140000, 28.914000, 72.022600, 107.820340],
+    ]
+)
+TABLE_A3 = np.array(
+    [
+        [0.000000, 0.000000, 0.000000, 0.000000, 0.000000],
+        [0.000000, 9.000000, 8.100000, 7.290000, 6.561000],
+        [42.400000, 63.460000, 82.914000, 94.322600, 86.690340],
+        [35.160000, 49.644000, 76.679600, 104.820340, 113.038306],
+        [-24.356000, -1.977400, 26.220340, 69.598306, 105.638475],
+    ]
+)
 SIX_CYCLE = [(2, 1), (2, 2), (3, 2), (3, 1), (3, 0), (2, 0)]
 
 
@@ -55,8 +61,14 @@ def test_converged_greedy_cycle_has_six_states_and_reward_53(tokic):
     assert [tokic.label(s) for s in cycle.states] == SIX_CYCLE
     assert sorted(cycle.rewards) == sorted([0, 0, 6, 32, 18, -3])
     # Converged values of the cycle states (THESIS.md 1.5).
-    expected = {(2, 0): 81.5827, (2, 1): 90.6475, (2, 2): 100.7194, (3, 2): 105.2438,
-                (3, 1): 81.3820, (3, 0): 70.4245}
+    expected = {
+        (2, 0): 81.5827,
+        (2, 1): 90.6475,
+        (2, 2): 100.7194,
+        (3, 2): 105.2438,
+        (3, 1): 81.3820,
+        (3, 0): 70.4245,
+    }
     for (r, c), v in expected.items():
         assert result.values[r * 5 + c] == pytest.approx(v, abs=5e-4)
 
@@ -80,8 +92,9 @@ def test_policy_iteration_reaches_the_same_optimum(tokic):
 
 
 def test_policy_iteration_with_sweeps_and_fixed_iterations(tokic):
-    pi = planning.policy_iteration(tokic, 0.9, np.random.RandomState(0), eval_sweeps=5,
-                                   iterations=30)
+    pi = planning.policy_iteration(
+        tokic, 0.9, np.random.RandomState(0), eval_sweeps=5, iterations=30
+    )
     assert pi.iterations == 30 and len(pi.history) == 31 and len(pi.policies) == 30
     assert planning.policy_cycle(tokic, pi.policy).reward == 53
 

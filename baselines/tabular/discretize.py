@@ -41,7 +41,7 @@ class Discretizer:
         if np.any(self.high <= self.low):
             raise ValueError(f"each range needs low < high, got {list(ranges)}")
         self._width = (self.high - self.low) / np.array(self.bins)
-        self._stride = np.array([int(np.prod(self.bins[i + 1:])) for i in range(len(self.bins))])
+        self._stride = np.array([int(np.prod(self.bins[i + 1 :])) for i in range(len(self.bins))])
 
     @property
     def n_states(self) -> int:
@@ -71,16 +71,17 @@ def parse_bins(text: str) -> tuple[int, ...]:
     """
     if not re.fullmatch(r"\s*\d+\s*(x\s*\d+\s*)?", str(text)):
         raise ValueError(
-            f"malformed bins {text!r}; use ANGLExVELOCITY like 20x20, or ANGLE like 100")
+            f"malformed bins {text!r}; use ANGLExVELOCITY like 20x20, or ANGLE like 100"
+        )
     bins = tuple(int(b) for b in str(text).split("x"))
     if any(b < 1 for b in bins):
         raise ValueError(f"bin counts must be ≥ 1, got {text!r}")
     return bins
 
 
-def pole_discretizer(bins: tuple[int, ...],
-                     angle_range=POLE_ANGLE_RANGE,
-                     velocity_range=POLE_VELOCITY_RANGE) -> Discretizer:
+def pole_discretizer(
+    bins: tuple[int, ...], angle_range=POLE_ANGLE_RANGE, velocity_range=POLE_VELOCITY_RANGE
+) -> Discretizer:
     """The study's pole discretizer: angle bins, and optionally angular-velocity bins.
 
     Args:

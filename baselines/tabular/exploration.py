@@ -58,7 +58,8 @@ class EpsilonSchedule:
                 raise
             raise ValueError(
                 f"malformed ε schedule {text!r}; use a number like 0.1 or "
-                "step:epsilon points like 0:0.9,100:0.9,300:0") from None
+                "step:epsilon points like 0:0.9,100:0.9,300:0"
+            ) from None
         return cls(points)
 
     def __call__(self, step: int) -> float:
@@ -69,8 +70,7 @@ class EpsilonSchedule:
         return f"EpsilonSchedule({pts})"
 
 
-def argmax_ties(values: np.ndarray, rng: np.random.RandomState | None = None,
-                order=None) -> int:
+def argmax_ties(values: np.ndarray, rng: np.random.RandomState | None = None, order=None) -> int:
     """Index of a maximum of `values` (−inf marks disallowed entries).
 
     Args:
@@ -96,9 +96,14 @@ def argmax_ties(values: np.ndarray, rng: np.random.RandomState | None = None,
     raise ValueError("order does not cover the maximising index")
 
 
-def epsilon_greedy(values: np.ndarray, epsilon: float, rng: np.random.RandomState,
-                   allowed: np.ndarray | None = None, order=None,
-                   random_ties: bool = True) -> int:
+def epsilon_greedy(
+    values: np.ndarray,
+    epsilon: float,
+    rng: np.random.RandomState,
+    allowed: np.ndarray | None = None,
+    order=None,
+    random_ties: bool = True,
+) -> int:
     """ε-greedy choice over `values` (thesis Sec. 4.1.4).
 
     With probability ε a uniformly random allowed action, otherwise a greedy one.

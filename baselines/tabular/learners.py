@@ -32,9 +32,18 @@ class Learner:
     learns = "Q"
     on_policy = False  # True: `update` needs the next action a2 (SARSA family).
 
-    def __init__(self, n_states: int, n_actions: int, gamma: float, alpha: float,
-                 rng: np.random.RandomState, allowed: np.ndarray | None = None,
-                 random_ties: bool = True, tie_order=None, initial_value: float = 0.0):
+    def __init__(
+        self,
+        n_states: int,
+        n_actions: int,
+        gamma: float,
+        alpha: float,
+        rng: np.random.RandomState,
+        allowed: np.ndarray | None = None,
+        random_ties: bool = True,
+        tie_order=None,
+        initial_value: float = 0.0,
+    ):
         """Args:
           n_states: Number of states.
           n_actions: Number of actions.
@@ -57,8 +66,11 @@ class Learner:
         self.n_states, self.n_actions = int(n_states), int(n_actions)
         self.gamma, self.alpha = float(gamma), float(alpha)
         self.rng = rng
-        self.allowed = (np.ones((n_states, n_actions), dtype=bool) if allowed is None
-                        else np.asarray(allowed, dtype=bool))
+        self.allowed = (
+            np.ones((n_states, n_actions), dtype=bool)
+            if allowed is None
+            else np.asarray(allowed, dtype=bool)
+        )
         self.random_ties = random_ties
         self.tie_order = tie_order
         self.q = np.full((n_states, n_actions), float(initial_value))
@@ -68,8 +80,14 @@ class Learner:
         return np.where(self.allowed[s], self.q[s], -np.inf)
 
     def act(self, s: int, epsilon: float) -> int:
-        return epsilon_greedy(self.action_values(s), epsilon, self.rng, self.allowed[s],
-                              self.tie_order, self.random_ties)
+        return epsilon_greedy(
+            self.action_values(s),
+            epsilon,
+            self.rng,
+            self.allowed[s],
+            self.tie_order,
+            self.random_ties,
+        )
 
     def greedy(self, s: int) -> int:
         """The greedy action in `s` with deterministic tie-breaking (for reporting)."""
@@ -79,8 +97,9 @@ class Learner:
         """max_a over allowed actions of the values acted on, per state."""
         return np.array([self.action_values(s).max() for s in range(self.n_states)])
 
-    def update(self, s: int, a: int, r: float, s2: int, discount: float,
-               a2: int | None = None) -> float:
+    def update(
+        self, s: int, a: int, r: float, s2: int, discount: float, a2: int | None = None
+    ) -> float:
         raise NotImplementedError
 
     def end_episode(self) -> None:
@@ -127,8 +146,14 @@ class SarsaLambda(Learner):
 
     on_policy = True
 
-    def __init__(self, *args, lam: float = 0.9, trace: str = "accumulating",
-                 double_alpha: bool = False, **kwargs):
+    def __init__(
+        self,
+        *args,
+        lam: float = 0.9,
+        trace: str = "accumulating",
+        double_alpha: bool = False,
+        **kwargs,
+    ):
         super().__init__(*args, **kwargs)
         _check_lambda(lam, trace)
         self.lam, self.trace, self.double_alpha = float(lam), trace, double_alpha
@@ -157,14 +182,14 @@ class _VLearner(Learner):
 
     learns = "V"
 
-    def __init__(self, *args, successor: Callable[[int, int], int] | None = None,
-                 **kwargs):
+    def __init__(self, *args, successor: Callable[[int, int], int] | None = None, **kwargs):
         super().__init__(*args, **kwargs)
         if successor is None:
             raise ValueError(
                 "TD(0) and TD(λ) learn state values and need the task's deterministic "
                 "successor function to act; use a tabular model or the crawler, or a "
-                "Q-learner (q_learning, sarsa, sarsa_lambda)")
+                "Q-learner (q_learning, sarsa, sarsa_lambda)"
+            )
         self.v = np.full(self.n_states, self.q[0, 0])
         self.r_hat = np.zeros((self.n_states, self.n_actions))
         self._succ = np.zeros((self.n_states, self.n_actions), dtype=np.int64)
@@ -173,8 +198,9 @@ class _VLearner(Learner):
                 self._succ[s, a] = successor(s, a) if self.allowed[s, a] else s
 
     def action_values(self, s):
-        return np.where(self.allowed[s], self.r_hat[s] + self.gamma * self.v[self._succ[s]],
-                        -np.inf)
+        return np.where(
+            self.allowed[s], self.r_hat[s] + self.gamma * self.v[self._succ[s]], -np.inf
+        )
 
     def state_values(self):
         return self.v.copy()
@@ -196,8 +222,14 @@ class TD0(_VLearner):
 class TDLambda(_VLearner):
     """TD(λ), thesis Eq. 4.3, with state eligibility traces (see SarsaLambda on α)."""
 
-    def __init__(self, *args, lam: float = 0.9, trace: str = "accumulating",
-                 double_alpha: bool = False, **kwargs):
+    def __init__(
+        self,
+        *args,
+        lam: float = 0.9,
+        trace: str = "accumulating",
+        double_alpha: bool = False,
+        **kwargs,
+    ):
         super().__init__(*args, **kwargs)
         _check_lambda(lam, trace)
         self.lam, self.trace, self.double_alpha = float(lam), trace, double_alpha

@@ -19,18 +19,24 @@ from baselines.tabular.models import TabularModel
 class ModelEnvironment(dm_env.Environment):
     """Samples transitions and rewards of a `TabularModel`; episodes never terminate."""
 
-    def __init__(self, model: TabularModel, random: int | np.random.RandomState | None = None,
-                 start_state: int | None = None):
+    def __init__(
+        self,
+        model: TabularModel,
+        random: int | np.random.RandomState | None = None,
+        start_state: int | None = None,
+    ):
         self.model = model
-        self._random = (random if isinstance(random, np.random.RandomState)
-                        else np.random.RandomState(random))
+        self._random = (
+            random if isinstance(random, np.random.RandomState) else np.random.RandomState(random)
+        )
         self._start = model.start_state if start_state is None else int(start_state)
         self._state = self._start
         self._cdf = np.cumsum(model.transitions, axis=2)
 
     def _observation(self, blocked: bool) -> collections.OrderedDict:
-        return collections.OrderedDict(state=np.array(self._state, dtype=np.int64),
-                                       blocked=np.array(blocked))
+        return collections.OrderedDict(
+            state=np.array(self._state, dtype=np.int64), blocked=np.array(blocked)
+        )
 
     def reset(self) -> dm_env.TimeStep:
         self._state = self._start
@@ -52,7 +58,8 @@ class ModelEnvironment(dm_env.Environment):
     def observation_spec(self):
         return collections.OrderedDict(
             state=specs.DiscreteArray(self.model.n_states, name="state"),
-            blocked=specs.Array((), bool, name="blocked"))
+            blocked=specs.Array((), bool, name="blocked"),
+        )
 
     def action_spec(self):
         return specs.DiscreteArray(self.model.n_actions, name="action")

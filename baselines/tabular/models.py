@@ -72,10 +72,15 @@ def grid_index(r: int, c: int, cols: int = 5) -> int:
     return r * cols + c
 
 
-def grid_model(rewards: dict[tuple[tuple[int, int], tuple[int, int]], float],
-               rows: int = 5, cols: int = 5, slip: float = 0.0, name: str = "grid",
-               start: tuple[int, int] = (0, 0),
-               tie_order: tuple[int, ...] | None = APPENDIX_TIE_ORDER) -> TabularModel:
+def grid_model(
+    rewards: dict[tuple[tuple[int, int], tuple[int, int]], float],
+    rows: int = 5,
+    cols: int = 5,
+    slip: float = 0.0,
+    name: str = "grid",
+    start: tuple[int, int] = (0, 0),
+    tie_order: tuple[int, ...] | None = APPENDIX_TIE_ORDER,
+) -> TabularModel:
     """Builds a grid-world model of the crawler kind.
 
     Args:
@@ -118,8 +123,9 @@ def grid_model(rewards: dict[tuple[tuple[int, int], tuple[int, int]], float],
             raise ValueError(f"reward for {key} is not a move between neighbouring cells")
         s, a, s2 = moves[key]
         R[s, a, s2] = float(value)
-    return TabularModel(name, P, R, allowed, grid_index(*start, cols), GRID_ACTIONS,
-                        (rows, cols), tie_order)
+    return TabularModel(
+        name, P, R, allowed, grid_index(*start, cols), GRID_ACTIONS, (rows, cols), tie_order
+    )
 
 
 def load_tokic_rewards() -> dict[tuple[tuple[int, int], tuple[int, int]], float]:
@@ -127,8 +133,11 @@ def load_tokic_rewards() -> dict[tuple[tuple[int, int], tuple[int, int]], float]
 
     Source: `cpg_suite/data/tokic_rewards.json` (see `cpg_suite/data/SOURCES.md`).
     """
-    text = importlib.resources.files("cpg_suite").joinpath("data/tokic_rewards.json").read_text(
-        encoding="utf-8")
+    text = (
+        importlib.resources.files("cpg_suite")
+        .joinpath("data/tokic_rewards.json")
+        .read_text(encoding="utf-8")
+    )
     table = json.loads(text)["rewards"]
     out = {}
     for key, value in table.items():

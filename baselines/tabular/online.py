@@ -47,9 +47,15 @@ class OnlineResult:
         return len(self.fall_steps)
 
 
-def run_online(env, learner: Learner, to_state: Callable[[dict], int], steps: int,
-               epsilon: EpsilonSchedule, record: tuple[str, ...] = (),
-               on_episode: Callable[[Episode], None] | None = None) -> OnlineResult:
+def run_online(
+    env,
+    learner: Learner,
+    to_state: Callable[[dict], int],
+    steps: int,
+    epsilon: EpsilonSchedule,
+    record: tuple[str, ...] = (),
+    on_episode: Callable[[Episode], None] | None = None,
+) -> OnlineResult:
     """Runs `steps` learning steps of `learner` on `env`.
 
     Args:
@@ -135,6 +141,6 @@ def balance_metrics(result: OnlineResult, last: int = 5000) -> dict:
     }
     if "angle" in result.observations:
         tail = result.observations["angle"][tail_start:]
-        out[f"rms_angle_last_{last}"] = float(np.sqrt(np.mean(tail ** 2)))
+        out[f"rms_angle_last_{last}"] = float(np.sqrt(np.mean(tail**2)))
         out[f"max_abs_angle_last_{last}"] = float(np.max(np.abs(tail)))
     return out

@@ -21,8 +21,9 @@ def action_values(model: TabularModel, values: np.ndarray, gamma: float) -> np.n
     return np.where(model.allowed, q, -np.inf)
 
 
-def greedy_policy(model: TabularModel, values: np.ndarray, gamma: float,
-                  tie_order=None) -> np.ndarray:
+def greedy_policy(
+    model: TabularModel, values: np.ndarray, gamma: float, tie_order=None
+) -> np.ndarray:
     """The greedy policy of Eq. 3.2, ties to the first maximiser in `tie_order`.
 
     Args:
@@ -56,9 +57,15 @@ class PlanningResult:
     policies: list[np.ndarray] = dataclasses.field(default_factory=list)  # PI only
 
 
-def value_iteration(model: TabularModel, gamma: float, sweeps: int | None = None,
-                    tol: float = 1e-9, order=None, initial_values: np.ndarray | None = None,
-                    max_sweeps: int = 100_000) -> PlanningResult:
+def value_iteration(
+    model: TabularModel,
+    gamma: float,
+    sweeps: int | None = None,
+    tol: float = 1e-9,
+    order=None,
+    initial_values: np.ndarray | None = None,
+    max_sweeps: int = 100_000,
+) -> PlanningResult:
     """Value iteration with in-place sweeps (thesis Alg. 4.1, Eq. 3.1).
 
     Args:
@@ -81,8 +88,11 @@ def value_iteration(model: TabularModel, gamma: float, sweeps: int | None = None
     if sweeps is not None and sweeps < 0:
         raise ValueError(f"sweeps must be ≥ 0, got {sweeps}")
     order = np.arange(model.n_states) if order is None else np.asarray(order)
-    v = (np.zeros(model.n_states) if initial_values is None
-         else np.array(initial_values, dtype=np.float64))
+    v = (
+        np.zeros(model.n_states)
+        if initial_values is None
+        else np.array(initial_values, dtype=np.float64)
+    )
     P, R, allowed = model.transitions, model.rewards, model.allowed
     history = [v.copy()]
     limit = sweeps if sweeps is not None else max_sweeps
@@ -104,9 +114,14 @@ def value_iteration(model: TabularModel, gamma: float, sweeps: int | None = None
     return PlanningResult(v, greedy_policy(model, v, gamma), done, converged, history)
 
 
-def evaluate_policy(model: TabularModel, policy: np.ndarray, gamma: float,
-                    sweeps: int | None = None, initial_values: np.ndarray | None = None,
-                    order=None) -> np.ndarray:
+def evaluate_policy(
+    model: TabularModel,
+    policy: np.ndarray,
+    gamma: float,
+    sweeps: int | None = None,
+    initial_values: np.ndarray | None = None,
+    order=None,
+) -> np.ndarray:
     """V^π by an exact linear solve (`sweeps=None`), or by in-place sweeps.
 
     With γ = 1 the exact solve needs a proper policy; use sweeps then.
@@ -125,9 +140,14 @@ def evaluate_policy(model: TabularModel, policy: np.ndarray, gamma: float,
     return v
 
 
-def policy_iteration(model: TabularModel, gamma: float, rng: np.random.RandomState,
-                     eval_sweeps: int | None = None, max_iterations: int = 1000,
-                     iterations: int | None = None) -> PlanningResult:
+def policy_iteration(
+    model: TabularModel,
+    gamma: float,
+    rng: np.random.RandomState,
+    eval_sweeps: int | None = None,
+    max_iterations: int = 1000,
+    iterations: int | None = None,
+) -> PlanningResult:
     """Policy iteration (thesis Sec. 4.1.6) from a uniformly random initial policy.
 
     One iteration = one policy evaluation + one greedy improvement (the study does not
@@ -149,8 +169,7 @@ def policy_iteration(model: TabularModel, gamma: float, rng: np.random.RandomSta
     _check_gamma(gamma)
     if eval_sweeps is None and gamma >= 1.0:
         raise ValueError("exact policy evaluation needs gamma < 1; give eval_sweeps")
-    policy = np.array([rng.choice(np.flatnonzero(model.allowed[s]))
-                       for s in range(model.n_states)])
+    policy = np.array([rng.choice(np.flatnonzero(model.allowed[s])) for s in range(model.n_states)])
     v = np.zeros(model.n_states)
     history, policies = [v.copy()], []
     limit = iterations if iterations is not None else max_iterations

@@ -22,27 +22,53 @@ ALGOS = PLANNERS + tuple(learners.LEARNERS)
 
 # Every setting of a tabular run and its default.
 DEFAULTS = {
-    "task": None, "model": None, "algo": "q_learning", "gamma": 0.9, "alpha": 0.1,
-    "lam": 0.9, "trace": "accumulating", "double_alpha": False, "epsilon": "0",
-    "steps": 20000, "sweeps": None, "iterations": None, "eval_sweeps": None, "tol": 1e-9,
-    "slip": 0.0, "bins": "20x20", "force": None, "actions": 3, "reward": "angle", "seed": 0,
-    "output_dir": "runs", "run_name": None, "overwrite": False,
+    "task": None,
+    "model": None,
+    "algo": "q_learning",
+    "gamma": 0.9,
+    "alpha": 0.1,
+    "lam": 0.9,
+    "trace": "accumulating",
+    "double_alpha": False,
+    "epsilon": "0",
+    "steps": 20000,
+    "sweeps": None,
+    "iterations": None,
+    "eval_sweeps": None,
+    "tol": 1e-9,
+    "slip": 0.0,
+    "bins": "20x20",
+    "force": None,
+    "actions": 3,
+    "reward": "angle",
+    "seed": 0,
+    "output_dir": "runs",
+    "run_name": None,
+    "overwrite": False,
 }
 
 
-def make_learner(settings: dict, n_states: int, n_actions: int, rng: np.random.RandomState,
-                 allowed: np.ndarray | None = None, successor=None,
-                 tie_order=None) -> learners.Learner:
+def make_learner(
+    settings: dict,
+    n_states: int,
+    n_actions: int,
+    rng: np.random.RandomState,
+    allowed: np.ndarray | None = None,
+    successor=None,
+    tie_order=None,
+) -> learners.Learner:
     """Builds the learner `settings["algo"]` with the settings' γ, α, λ, trace, double α."""
     algo = settings["algo"]
     kwargs = dict(rng=rng, allowed=allowed, tie_order=tie_order)
     if algo in ("sarsa_lambda", "td_lambda"):
-        kwargs.update(lam=settings["lam"], trace=settings["trace"],
-                      double_alpha=settings["double_alpha"])
+        kwargs.update(
+            lam=settings["lam"], trace=settings["trace"], double_alpha=settings["double_alpha"]
+        )
     if algo in ("td0", "td_lambda"):
         kwargs["successor"] = successor
-    return learners.LEARNERS[algo](n_states, n_actions, settings["gamma"], settings["alpha"],
-                                   **kwargs)
+    return learners.LEARNERS[algo](
+        n_states, n_actions, settings["gamma"], settings["alpha"], **kwargs
+    )
 
 
 def _cycle_summary(model: models.TabularModel, policy: np.ndarray) -> dict:
@@ -65,24 +91,34 @@ def run_planner(run_dir: str, settings: dict, model: models.TabularModel) -> dic
     """Value or policy iteration on a complete model; writes values, history and progress."""
     gamma = settings["gamma"]
     if settings["algo"] == "value_iteration":
-        result = planning.value_iteration(model, gamma, sweeps=settings["sweeps"],
-                                          tol=settings["tol"])
+        result = planning.value_iteration(
+            model, gamma, sweeps=settings["sweeps"], tol=settings["tol"]
+        )
     else:
         result = planning.policy_iteration(
-            model, gamma, np.random.RandomState(settings["seed"]),
-            eval_sweeps=settings["eval_sweeps"], iterations=settings["iterations"])
+            model,
+            gamma,
+            np.random.RandomState(settings["seed"]),
+            eval_sweeps=settings["eval_sweeps"],
+            iterations=settings["iterations"],
+        )
     rows = []
     for k in range(1, len(result.history)):
         policy_k = planning.greedy_policy(model, result.history[k], gamma)
-        rows.append({"iteration": k,
-                     "max_change": float(np.abs(result.history[k] - result.history[k - 1]).max()),
-                     "start_value": float(result.history[k][model.start_state]),
-                     "cycle_length": planning.policy_cycle(model, policy_k).length})
+        rows.append(
+            {
+                "iteration": k,
+                "max_change": float(np.abs(result.history[k] - result.history[k - 1]).max()),
+                "start_value": float(result.history[k][model.start_state]),
+                "cycle_length": planning.policy_cycle(model, policy_k).length,
+            }
+        )
     runs.write_rows_csv(os.path.join(run_dir, "progress.csv"), rows)
     runs.write_matrix_csv(os.path.join(run_dir, "values.csv"), _values_table(model, result.values))
     runs.save_npy(os.path.join(run_dir, "values_history.npy"), np.array(result.history))
-    runs.write_matrix_csv(os.path.join(run_dir, "policy.csv"),
-                          _values_table(model, result.policy), fmt="%d")
+    runs.write_matrix_csv(
+        os.path.join(run_dir, "policy.csv"), _values_table(model, result.policy), fmt="%d"
+    )
     summary = {"iterations": result.iterations, "converged": result.converged}
     summary.update(_cycle_summary(model, result.policy))
     return summary
@@ -93,19 +129,36 @@ def run_online_on_model(run_dir: str, settings: dict, model: models.TabularModel
     seed = settings["seed"]
     rng = np.random.RandomState(seed)
     env = model_env.ModelEnvironment(model, random=np.random.RandomState(seed + 1_000_003))
-    learner = make_learner(settings, model.n_states, model.n_actions, rng,
-                           allowed=model.allowed, successor=model.intended_successor,
-                           tie_order=model.tie_order)
+    learner = make_learner(
+        settings,
+        model.n_states,
+        model.n_actions,
+        rng,
+        allowed=model.allowed,
+        successor=model.intended_successor,
+        tie_order=model.tie_order,
+    )
     schedule = exploration.EpsilonSchedule.parse(settings["epsilon"])
     result = run_online(env, learner, model_env.state_of, settings["steps"], schedule)
     policy = np.array([learner.greedy(s) for s in range(model.n_states)])
-    runs.write_rows_csv(os.path.join(run_dir, "progress.csv"), [
-        {"step": t + 1, "state": int(result.states[t]), "action": int(result.actions[t]),
-         "reward": float(result.rewards[t])} for t in range(len(result.rewards))])
-    runs.write_matrix_csv(os.path.join(run_dir, "values.csv"),
-                          _values_table(model, learner.state_values()))
-    runs.save_npy(os.path.join(run_dir, "table.npy"),
-                  learner.v if learner.learns == "V" else learner.q)
+    runs.write_rows_csv(
+        os.path.join(run_dir, "progress.csv"),
+        [
+            {
+                "step": t + 1,
+                "state": int(result.states[t]),
+                "action": int(result.actions[t]),
+                "reward": float(result.rewards[t]),
+            }
+            for t in range(len(result.rewards))
+        ],
+    )
+    runs.write_matrix_csv(
+        os.path.join(run_dir, "values.csv"), _values_table(model, learner.state_values())
+    )
+    runs.save_npy(
+        os.path.join(run_dir, "table.npy"), learner.v if learner.learns == "V" else learner.q
+    )
     summary = {"steps": settings["steps"], "return": float(result.rewards.sum())}
     summary.update(_cycle_summary(model, policy))
     return summary
@@ -122,25 +175,41 @@ def run_online_on_task(run_dir: str, settings: dict) -> dict:
     env = cpg_suite.load(settings["task"], task_kwargs=task_kwargs)
     spec = env.action_spec()
     to_state = discretize.pole_discretizer(discretize.parse_bins(settings["bins"]))
-    learner = make_learner(settings, to_state.n_states, spec.num_values,
-                           np.random.RandomState(seed))
+    learner = make_learner(
+        settings, to_state.n_states, spec.num_values, np.random.RandomState(seed)
+    )
     schedule = exploration.EpsilonSchedule.parse(settings["epsilon"])
     fields = ["episode", "start_step", "end_step", "length", "fell", "return"]
     with runs.ProgressCSV(os.path.join(run_dir, "progress.csv"), fields) as progress:
-        result = run_online(env, learner, to_state, settings["steps"], schedule,
-                            record=("angle", "angular_velocity"),
-                            on_episode=lambda ep: progress.append({
-                                "episode": ep.index, "start_step": ep.start_step,
-                                "end_step": ep.end_step, "length": ep.length,
-                                "fell": int(ep.fell), "return": ep.episode_return}))
-    runs.save_npy(os.path.join(run_dir, "angles.npy"),
-                  result.observations["angle"].astype(np.float32))
+        result = run_online(
+            env,
+            learner,
+            to_state,
+            settings["steps"],
+            schedule,
+            record=("angle", "angular_velocity"),
+            on_episode=lambda ep: progress.append(
+                {
+                    "episode": ep.index,
+                    "start_step": ep.start_step,
+                    "end_step": ep.end_step,
+                    "length": ep.length,
+                    "fell": int(ep.fell),
+                    "return": ep.episode_return,
+                }
+            ),
+        )
+    runs.save_npy(
+        os.path.join(run_dir, "angles.npy"), result.observations["angle"].astype(np.float32)
+    )
     runs.save_npy(os.path.join(run_dir, "actions.npy"), result.actions.astype(np.int8))
-    runs.save_npy(os.path.join(run_dir, "q_table.npy"),
-                  learner.q.reshape(to_state.bins + (spec.num_values,)))
+    runs.save_npy(
+        os.path.join(run_dir, "q_table.npy"), learner.q.reshape(to_state.bins + (spec.num_values,))
+    )
     summary = balance_metrics(result, last=5000)
-    summary["physics_steps"] = settings["steps"] * int(round(
-        env.control_timestep() / env.physics.model.opt.timestep))
+    summary["physics_steps"] = settings["steps"] * int(
+        round(env.control_timestep() / env.physics.model.opt.timestep)
+    )
     summary["return"] = float(result.rewards.sum())
     return summary
 
@@ -163,12 +232,18 @@ def execute(settings: dict, resume: bool = False) -> tuple[str, dict]:
     settings = {**DEFAULTS, **settings}
     task = settings["task"] or settings["model"]
     run_name = settings["run_name"] or f"seed{settings['seed']}"
-    summary_path = os.path.join(settings["output_dir"], settings["algo"], task, run_name,
-                                "summary.json")
+    summary_path = os.path.join(
+        settings["output_dir"], settings["algo"], task, run_name, "summary.json"
+    )
     if resume and os.path.exists(summary_path):
         return os.path.dirname(summary_path), runs.read_json(summary_path)
-    run_dir = runs.run_directory(settings["output_dir"], settings["algo"], task, run_name,
-                                 overwrite=settings["overwrite"] or resume)
+    run_dir = runs.run_directory(
+        settings["output_dir"],
+        settings["algo"],
+        task,
+        run_name,
+        overwrite=settings["overwrite"] or resume,
+    )
     runs.write_config(run_dir, settings)
     start = time.perf_counter()
     if settings["model"] is not None:
@@ -179,7 +254,12 @@ def execute(settings: dict, resume: bool = False) -> tuple[str, dict]:
             summary = run_online_on_model(run_dir, settings, model)
     else:
         summary = run_online_on_task(run_dir, settings)
-    summary = {"method": settings["algo"], "task": task, "seed": settings["seed"], **summary,
-               "wall_s": time.perf_counter() - start}
+    summary = {
+        "method": settings["algo"],
+        "task": task,
+        "seed": settings["seed"],
+        **summary,
+        "wall_s": time.perf_counter() - start,
+    }
     runs.write_json(os.path.join(run_dir, "summary.json"), summary)
     return run_dir, summary
