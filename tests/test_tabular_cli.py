@@ -113,3 +113,18 @@ def test_bad_input_one_line_exit_2(tmp_path, args, words):
     assert len(lines) == 1, out.stderr
     assert lines[0].startswith("error: ") and words in lines[0]
     assert not any(tmp_path.iterdir())  # Nothing was written.
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [(["--seeds=1"], "--seeds"), (["--steps=100"], "--steps"), (["--seeds=x"], "seeds")],
+)
+def test_pole_claims_bad_input(tmp_path, args, words):
+    out = subprocess.run(
+        [sys.executable, "-m", "baselines.pole_claims", *args, f"--output_dir={tmp_path}"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 2
+    assert len(out.stderr.strip().splitlines()) == 1 and words in out.stderr
