@@ -129,22 +129,47 @@ class Sarsa(Learner):
         return delta
 
 
-def _check_lambda(lam: float, trace: str) -> None:
-    if not 0.0 <= lam <= 1.0:
-        raise ValueError(f"lambda must lie in [0, 1], got {lam}")
-    if trace not in TRACES:
-        raise ValueError(f"trace must be one of {TRACES}, got {trace!r}")
+class EligibilityTraces:
+    """Eligibility traces over a value table (thesis Eq. 4.3-4.4), decayed by γλ each step.
 
-
-class SarsaLambda(Learner):
-    """SARSA(λ), thesis Eq. 4.4, with eligibility traces e(s, a) decayed by γλ.
-
-    The thesis prints δ = α[r + γQ(s', a') − Q(s, a)] and then updates Q += α δ e, i.e.
-    α twice; the cited source (Sutton & Barto 1998) has α once. `double_alpha=True`
-    reproduces the printed form.
+    The thesis prints δ = α[r + γ V(s') − V(s)] and then updates V += α δ e, i.e. α twice;
+    the cited source (Sutton & Barto 1998) has α once. `double_alpha=True` reproduces the
+    printed form.
     """
 
-    on_policy = True
+    def __init__(self, shape, lam: float, trace: str, double_alpha: bool):
+        if not 0.0 <= lam <= 1.0:
+            raise ValueError(f"lambda must lie in [0, 1], got {lam}")
+        if trace not in TRACES:
+            raise ValueError(f"trace must be one of {TRACES}, got {trace!r}")
+        self.lam, self.trace, self.double_alpha = float(lam), trace, double_alpha
+        self.e = np.zeros(shape)
+
+    def apply(self, table: np.ndarray, index, delta: float, alpha: float, decay: float) -> None:
+        """Marks `index` eligible, moves every entry of `table` by α δ e, then decays e.
+
+        Args:
+          table: The value table, updated in place.
+          index: The entry just visited (state, or (state, action)).
+          delta: The TD error.
+          alpha: Learning rate.
+          decay: γ times the environment's discount (0 at a fall).
+        """
+        if self.double_alpha:
+            delta *= alpha
+        if self.trace == "replacing":
+            self.e[index] = 1.0
+        else:
+            self.e[index] += 1.0
+        table += alpha * delta * self.e
+        self.e *= decay * self.lam
+
+    def clear(self) -> None:
+        self.e[:] = 0.0
+
+
+class _TracedLearner:
+    """Mixin: eligibility traces over the learner's value table (`_table()`)."""
 
     def __init__(
         self,
@@ -155,26 +180,31 @@ class SarsaLambda(Learner):
         **kwargs,
     ):
         super().__init__(*args, **kwargs)
-        _check_lambda(lam, trace)
-        self.lam, self.trace, self.double_alpha = float(lam), trace, double_alpha
-        self.e = np.zeros_like(self.q)
+        self.traces = EligibilityTraces(self._table().shape, lam, trace, double_alpha)
+
+    @property
+    def e(self) -> np.ndarray:
+        """The current eligibility of every table entry."""
+        return self.traces.e
+
+    def end_episode(self):
+        self.traces.clear()
+
+
+class SarsaLambda(_TracedLearner, Learner):
+    """SARSA(λ), thesis Eq. 4.4, with eligibility traces e(s, a) (see `EligibilityTraces`)."""
+
+    on_policy = True
+
+    def _table(self):
+        return self.q
 
     def update(self, s, a, r, s2, discount, a2=None):
         if a2 is None:
             raise ValueError("SARSA(λ) needs the next action a2")
         delta = r + self.gamma * discount * self.q[s2, a2] - self.q[s, a]
-        if self.double_alpha:
-            delta *= self.alpha
-        if self.trace == "replacing":
-            self.e[s, a] = 1.0
-        else:
-            self.e[s, a] += 1.0
-        self.q += self.alpha * delta * self.e
-        self.e *= self.gamma * self.lam * discount
+        self.traces.apply(self.q, (s, a), delta, self.alpha, self.gamma * discount)
         return delta
-
-    def end_episode(self):
-        self.e[:] = 0.0
 
 
 class _VLearner(Learner):
@@ -219,37 +249,17 @@ class TD0(_VLearner):
         return delta
 
 
-class TDLambda(_VLearner):
-    """TD(λ), thesis Eq. 4.3, with state eligibility traces (see SarsaLambda on α)."""
+class TDLambda(_TracedLearner, _VLearner):
+    """TD(λ), thesis Eq. 4.3, with state eligibility traces (see `EligibilityTraces`)."""
 
-    def __init__(
-        self,
-        *args,
-        lam: float = 0.9,
-        trace: str = "accumulating",
-        double_alpha: bool = False,
-        **kwargs,
-    ):
-        super().__init__(*args, **kwargs)
-        _check_lambda(lam, trace)
-        self.lam, self.trace, self.double_alpha = float(lam), trace, double_alpha
-        self.e = np.zeros(self.n_states)
+    def _table(self):
+        return self.v
 
     def update(self, s, a, r, s2, discount, a2=None):
         self._record(s, a, r)
         delta = r + self.gamma * discount * self.v[s2] - self.v[s]
-        if self.double_alpha:
-            delta *= self.alpha
-        if self.trace == "replacing":
-            self.e[s] = 1.0
-        else:
-            self.e[s] += 1.0
-        self.v += self.alpha * delta * self.e
-        self.e *= self.gamma * self.lam * discount
+        self.traces.apply(self.v, s, delta, self.alpha, self.gamma * discount)
         return delta
-
-    def end_episode(self):
-        self.e[:] = 0.0
 
 
 LEARNERS = {
