@@ -72,16 +72,21 @@ def check_continuous_action(action, spec: specs.BoundedArray) -> np.ndarray:
     Raises:
       ValueError: If the shape differs from the spec's or a value is NaN or infinite.
     """
-    try:
-        arr = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"action must be numeric with shape {spec.shape}, got {action!r}") from e
+    if isinstance(action, np.ndarray) and action.dtype == np.float64:
+        arr = action  # Fast path: the common case on the per-step hot path.
+    else:
+        try:
+            arr = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError) as e:
+            raise ValueError(
+                f"action must be numeric with shape {spec.shape}, got {action!r}"
+            ) from e
     if arr.shape != spec.shape:
         if arr.size == int(np.prod(spec.shape)) and arr.ndim <= 1:
             arr = arr.reshape(spec.shape)
         else:
             raise ValueError(f"action has shape {arr.shape}, expected {spec.shape}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise ValueError(f"action contains NaN or infinite values: {arr!r}")
     return np.clip(arr, spec.minimum, spec.maximum)
 

@@ -27,7 +27,7 @@ def random_policy(action_spec, seed=None):
     if isinstance(action_spec, specs.DiscreteArray):
         return lambda ts: rng.randint(action_spec.num_values)
     low, high = action_spec.minimum, action_spec.maximum
-    return lambda ts: rng.uniform(low, high)
+    return lambda ts: rng.uniform(low, high, size=action_spec.shape)
 
 
 def step_environment(env, policy, num_episodes=5, max_steps_per_episode=10):

@@ -1,0 +1,422 @@
+"""The central pattern generator of the study (thesis Eq. 5.1-5.18) and its DMP term (5.19-5.22).
+
+One phase oscillator per leg, φ̇ᵢ = ω, the right leg half a cycle behind the left (5.1).
+Each of the 12 leg joints has a motion-pattern generator
+
+    żᵢⱼ = r(t) Σₙ fⁿᵢⱼ(φᵢ) − β (zᵢⱼ − Oᵢⱼ) [+ DMP term on hip and ankle roll]      (5.2)
+
+whose primitives f are driven by the leg's phase (5.3-5.12), and z is the joint target.
+
+Decisions where the study is silent (DESIGN Sec. 5, THESIS.md Sec. 3.4 and 3.6):
+
+* **Amplitudes are degrees** of joint excursion, in the order of thesis Sec. 6.2
+  (`AMPLITUDE_NAMES`). A sine primitive `A φ̇ sin(φ + c)` integrates to an oscillation of
+  amplitude A (attenuated by ω/√(ω²+β²) through the relaxation term).
+* **Flexion primitives** (5.6-5.8) are read as the time derivative of a Gaussian bump of
+  height A centred on the swing, `−s A φ̇ (φ̄/σ²) exp(−φ̄²/(2σ²))`, φ̄ = φ wrapped to
+  (−π, π], σ = π/6, s = the printed sign (`flexion_form="gaussian_derivative"`). The
+  printed form without the φ̄ factor is kept as `flexion_form="printed"`.
+* **Anatomical variables.** z is an anatomical angle per leg: hip yaw + = internal
+  rotation; hip roll + = adduction; hip pitch + = flexion (thigh forward); knee + = extension
+  (so flexion is negative, as in Eq. 5.7); ankle pitch + = dorsiflexion, so that
+  hip + knee + ankle pitch = 0 keeps the sole parallel to the torso (the hand-tuned flexion
+  amplitudes cancel: 20 − 40 + 40 − 20 = 0); ankle roll + = the rotation that cancels an
+  equal hip roll, so equal hip and ankle roll keep the sole flat while the pelvis sways.
+  `JOINT_SIGNS` maps them onto the DARwIn-OP joints (axes of darwin_op_facts.md Sec. 3-4):
+  mirrored legs, one sign per joint. With these signs the printed compass (5.11-5.12) and
+  flexKnee (5.9-5.10) primitives with equal positive amplitudes tilt the sole (the ankle
+  adds to the hip or knee instead of cancelling it); the study gives no convention that
+  makes all printed primitives sole-parallel, and no single per-joint sign can.
+* **Phase**: φ_L(0) = `initial_phase`, φ_R = φ_L − π (anti-phase); the swing of a leg is
+  centred on φ̄ = 0.
+* **Start-up ramp**: the primitives are multiplied by a smoothstep r(t) rising from 0 to
+  1 over `ramp_time` seconds, so the gait starts from standing without a jolt (allowed by
+  DESIGN Sec. 5; the study does not say how its trials started).
+* **Integration**: exact exponential integration of the relaxation term over substeps of
+  `substep` seconds with the primitives taken at each substep's midpoint.
+* ω, β, the offsets O (standing posture) and the ramp are `CPGConfig` fields; the defaults
+  are the result of `python -m baselines.calibrate_cpg` (see that module).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+
+# The 11 CEM parameters, thesis Sec. 6.2 order (units: degrees).
+AMPLITUDE_NAMES = (
+    "balancing_hip",  # A_balancingHip, Eq. 5.3
+    "balancing_ankle",  # A_balancingAnk, Eq. 5.4
+    "hip",  # A_Hip, Eq. 5.6
+    "knee",  # A_Knee, Eq. 5.7
+    "ankle_hip",  # A_AnkHip, Eq. 5.8
+    "ankle_knee",  # A_AnkKnee, Eq. 5.8
+    "flex_knee",  # A_flexKnee, Eq. 5.9
+    "flex_ankle",  # A_flexAnk, Eq. 5.10
+    "pelvis_rotation",  # A_pelvisRot, Eq. 5.5
+    "compass_hip",  # A_compassHip, Eq. 5.11
+    "compass_ankle",  # A_compassAnk, Eq. 5.12
+)
+N_AMPLITUDES = len(AMPLITUDE_NAMES)
+
+# Thesis Table 6.1 "hand-tuned values" and the two CEM results (Tables 6.1 and 6.2).
+PRESETS = {
+    "hand_tuned": (11.0, 11.0, 20.0, 40.0, 20.0, 40.0, 2.0, 2.0, 0.0, 0.0, 0.0),
+    "table6_1": (
+        2.979604,
+        4.339130,
+        29.370636,
+        35.984702,
+        15.705181,
+        23.451423,
+        2.894878,
+        5.565523,
+        23.346823,
+        6.059359,
+        1.057788,
+    ),
+    "table6_2": (
+        3.886218,
+        12.091291,
+        28.796737,
+        33.628418,
+        29.245331,
+        38.766492,
+        7.986102,
+        0.801668,
+        5.145981,
+        25.679888,
+        18.227246,
+    ),
+}
+
+# Leg joints in action order: left leg, then right leg, each
+# (hip yaw, hip roll, hip pitch, knee, ankle pitch, ankle roll).
+LEG_JOINTS = (
+    "PelvYL",
+    "PelvL",
+    "LegUpperL",
+    "LegLowerL",
+    "AnkleL",
+    "FootL",
+    "PelvYR",
+    "PelvR",
+    "LegUpperR",
+    "LegLowerR",
+    "AnkleR",
+    "FootR",
+)
+JOINTS_PER_LEG = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
+HYAW, HROLL, HPITCH, KNEE, APITCH, AROLL = range(6)
+
+# Anatomical variable -> DARwIn-OP joint angle (darwin_op_facts.md Sec. 3.1 axes, Sec. 4).
+JOINT_SIGNS = np.array([+1, +1, +1, +1, -1, +1, -1, -1, -1, -1, +1, -1], dtype=np.float64)
+
+FLEXION_FORMS = ("gaussian_derivative", "printed")
+
+
+@dataclasses.dataclass(frozen=True)
+class CPGConfig:
+    """The CPG constants the study does not give (DESIGN Sec. 5).
+
+    Attributes:
+      stride_period: Period of one full cycle (a left and a right step), s; ω = 2π / period.
+      beta: Relaxation rate β toward the offsets, 1/s.
+      crouch: Standing knee flexion, degrees; hip and ankle pitch offsets are half of it
+        each so that the torso stays upright and the soles flat.
+      hip_roll_offset: Hip and ankle roll offset (adduction), degrees.
+      sigma: Width σ of the flexion bump, rad of phase (thesis: π/6).
+      flexion_form: `"gaussian_derivative"` (R1, default) or `"printed"`.
+      ramp_time: Duration of the smoothstep start-up ramp of the primitives, s (0 = none).
+      initial_phase: φ_L at t = 0, rad; φ_R = φ_L − π.
+      substep: Integration substep, s.
+    """
+
+    stride_period: float = 1.1
+    beta: float = 8.0
+    crouch: float = 23.0
+    hip_roll_offset: float = 0.0
+    sigma: float = math.pi / 6
+    flexion_form: str = "gaussian_derivative"
+    ramp_time: float = 1.1
+    initial_phase: float = math.pi
+    substep: float = 0.001
+
+    def __post_init__(self):
+        if self.flexion_form not in FLEXION_FORMS:
+            raise ValueError(
+                f"flexion_form must be one of {FLEXION_FORMS}, got {self.flexion_form!r}"
+            )
+        for name in ("stride_period", "sigma", "substep"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in ("beta", "ramp_time"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be ≥ 0, got {getattr(self, name)}")
+
+    @property
+    def omega(self) -> float:
+        """ω, rad/s."""
+        return 2.0 * math.pi / self.stride_period
+
+    def anatomical_offsets(self) -> np.ndarray:
+        """O per leg joint (12,), anatomical degrees."""
+        leg = np.zeros(6)
+        leg[HROLL] = leg[AROLL] = self.hip_roll_offset
+        leg[HPITCH] = self.crouch / 2
+        leg[KNEE] = -self.crouch
+        leg[APITCH] = self.crouch / 2
+        return np.concatenate([leg, leg])
+
+    def offsets(self) -> np.ndarray:
+        """O as DARwIn-OP joint angles (12,), radians: the standing posture."""
+        return to_joint_angles(self.anatomical_offsets())
+
+
+def to_joint_angles(anatomical_degrees: np.ndarray) -> np.ndarray:
+    """Anatomical CPG variables (degrees, last axis 12) -> joint angles (radians)."""
+    return np.deg2rad(anatomical_degrees) * JOINT_SIGNS
+
+
+def to_anatomical(joint_angles: np.ndarray) -> np.ndarray:
+    """Joint angles (radians, last axis 12) -> anatomical CPG variables (degrees)."""
+    return np.rad2deg(np.asarray(joint_angles) * JOINT_SIGNS)
+
+
+def wrap_phase(phi):
+    """Wraps a phase to (−π, π]."""
+    return np.pi - np.mod(np.pi - phi, 2 * np.pi)
+
+
+def smoothstep(x):
+    """0 for x ≤ 0, 1 for x ≥ 1, 3x² − 2x³ between."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def amplitudes_from(params) -> np.ndarray:
+    """The 11 amplitudes from a preset name, a mapping of names, or a sequence.
+
+    Raises:
+      ValueError: On an unknown preset or name, a missing name, a wrong length or a
+        non-finite value.
+    """
+    if isinstance(params, str):
+        if params not in PRESETS:
+            raise ValueError(f"unknown amplitude preset {params!r}; valid: {', '.join(PRESETS)}")
+        params = PRESETS[params]
+    if isinstance(params, dict):
+        unknown = set(params) - set(AMPLITUDE_NAMES)
+        missing = [n for n in AMPLITUDE_NAMES if n not in params]
+        if unknown or missing:
+            raise ValueError(
+                f"amplitudes need exactly the names {', '.join(AMPLITUDE_NAMES)}; "
+                f"unknown {sorted(unknown)}, missing {missing}"
+            )
+        params = [params[n] for n in AMPLITUDE_NAMES]
+    try:
+        arr = np.asarray(params, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"amplitudes must be numbers, got {params!r}") from e
+    if arr.shape != (N_AMPLITUDES,):
+        raise ValueError(f"expected {N_AMPLITUDES} amplitudes, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"amplitudes must be finite, got {arr}")
+    return arr
+
+
+def load_amplitudes(path: str) -> np.ndarray:
+    """Reads a JSON file holding the 11 amplitudes by name (or a list, or {"amplitudes": ...})."""
+    with open(path, encoding="utf-8") as f:
+        data = json.load(f)
+    if isinstance(data, dict) and "amplitudes" in data:
+        data = data["amplitudes"]
+    return amplitudes_from(data)
+
+
+def primitive_basis(phases: np.ndarray, omega: float, config: CPGConfig) -> np.ndarray:
+    """∂ż/∂A: the primitives per unit amplitude (Eq. 5.3-5.12).
+
+    Args:
+      phases: Phases of the two legs, shape (..., 2) (left, right), rad.
+      omega: φ̇, rad/s.
+      config: The CPG configuration (flexion form, σ).
+
+    Returns:
+      Array (..., 11, 12): the rate of each joint's anatomical variable (degrees/s) per
+      degree of each amplitude.
+    """
+    phases = np.asarray(phases, dtype=np.float64)
+    out = np.zeros(phases.shape[:-1] + (N_AMPLITUDES, 12))
+    s2 = config.sigma**2
+    for leg in (0, 1):
+        phi = phases[..., leg]
+        base = 6 * leg
+        sin_phi = np.sin(phi)
+        cos_phi = np.cos(phi)
+        wrapped = wrap_phase(phi)
+        gauss = np.exp(-wrapped * wrapped / (2.0 * s2))
+        if config.flexion_form == "gaussian_derivative":
+            bump = -omega * wrapped / s2 * gauss  # d/dt of exp(-φ̄²/2σ²)
+        else:
+            bump = omega / s2 * gauss  # As printed (no φ̄ factor).
+        # Below, sin(φ + π/2) = cos φ and sin(φ + π) = −sin φ.
+        # Eq. 5.3, 5.4: balancing, hip and ankle roll.
+        out[..., 0, base + HROLL] = omega * sin_phi
+        out[..., 1, base + AROLL] = omega * sin_phi
+        # Eq. 5.6-5.8: flexion of hip (+), knee (−), ankle (+AnkKnee − AnkHip).
+        out[..., 2, base + HPITCH] = bump
+        out[..., 3, base + KNEE] = -bump
+        out[..., 4, base + APITCH] = -bump
+        out[..., 5, base + APITCH] = bump
+        # Eq. 5.9, 5.10: flexKnee, sin(φ + π) = −sin φ.
+        out[..., 6, base + KNEE] = -omega * sin_phi
+        out[..., 7, base + APITCH] = -omega * sin_phi
+        # Eq. 5.5: pelvis rotation, sin(φ + π/2) = cos φ.
+        out[..., 8, base + HYAW] = omega * cos_phi
+        # Eq. 5.11, 5.12: compass.
+        out[..., 9, base + HPITCH] = omega * cos_phi
+        out[..., 10, base + APITCH] = omega * cos_phi
+    return out
+
+
+class CPG:
+    """A steppable CPG for one or several amplitude vectors (the reference path).
+
+    `step(dt)` advances time by `dt` and returns the joint targets (radians, DARwIn-OP
+    joint signs, action order `LEG_JOINTS`). An optional DMP term (Eq. 5.19-5.22) adds a
+    rate to hip and ankle roll of both legs: set it with `set_roll_input` before a step.
+    """
+
+    def __init__(self, amplitudes, config: CPGConfig | None = None):
+        """Args:
+        amplitudes: (11,) or (K, 11) amplitudes in degrees (or a preset name).
+        config: CPG constants (default `CPGConfig()`).
+        """
+        self.config = config or CPGConfig()
+        if isinstance(amplitudes, (str, dict)):
+            amplitudes = amplitudes_from(amplitudes)
+        amps = np.asarray(amplitudes, dtype=np.float64)
+        self._single = amps.ndim == 1
+        self.amplitudes = np.atleast_2d(amps)
+        if self.amplitudes.shape[1] != N_AMPLITUDES or not np.all(np.isfinite(self.amplitudes)):
+            raise ValueError(
+                f"amplitudes must be finite with {N_AMPLITUDES} columns, got shape {amps.shape}"
+            )
+        self._offsets = self.config.anatomical_offsets()
+        self.reset()
+
+    def reset(self) -> None:
+        """t = 0, z = O, no roll input."""
+        self.time = 0.0
+        self.z = np.tile(self._offsets, (len(self.amplitudes), 1))
+        self.roll_input = np.zeros((len(self.amplitudes), 2))
+
+    def phases(self, t: float | None = None) -> np.ndarray:
+        """(φ_L, φ_R) at time t (default: now), rad, unwrapped."""
+        t = self.time if t is None else t
+        left = self.config.initial_phase + self.config.omega * t
+        return np.array([left, left - math.pi])
+
+    def set_roll_input(self, rates_deg) -> None:
+        """Adds a rate (degrees/s) to hip and ankle roll of (left, right) legs (Eq. 5.21-5.22).
+
+        Args:
+          rates_deg: (2,) or (K, 2): the DMP output F per leg, held until changed.
+        """
+        self.roll_input = np.broadcast_to(
+            np.asarray(rates_deg, dtype=np.float64), self.roll_input.shape
+        ).copy()
+
+    def _rates(self, t: float) -> np.ndarray:
+        cfg = self.config
+        basis = primitive_basis(self.phases(t), cfg.omega, cfg)  # (11, 12)
+        ramp = smoothstep(t / cfg.ramp_time) if cfg.ramp_time > 0 else 1.0
+        rates = ramp * (self.amplitudes @ basis)  # (K, 12)
+        for leg in (0, 1):
+            rates[:, 6 * leg + HROLL] += self.roll_input[:, leg]
+            rates[:, 6 * leg + AROLL] += self.roll_input[:, leg]
+        return rates
+
+    def step(self, dt: float) -> np.ndarray:
+        """Advances by `dt` seconds; returns the joint targets, radians ((12,) or (K, 12))."""
+        cfg = self.config
+        n = max(1, int(round(dt / cfg.substep)))
+        h = dt / n
+        decay = math.exp(-cfg.beta * h)
+        gain = (1.0 - decay) / cfg.beta if cfg.beta > 0 else h
+        for _ in range(n):
+            rates = self._rates(self.time + 0.5 * h)
+            self.z = self._offsets + (self.z - self._offsets) * decay + gain * rates
+            self.time += h
+        targets = to_joint_angles(self.z)
+        return targets[0] if self._single else targets
+
+
+def trajectories(
+    amplitudes, n_steps: int, control_timestep: float, config: CPGConfig | None = None
+) -> np.ndarray:
+    """Open-loop joint targets for a batch of amplitude vectors (the fast path).
+
+    The CPG is linear in its amplitudes: z(t) = O + Σₚ Aₚ Yₚ(t). The unit responses Yₚ are
+    computed once with the reference stepper (`CPG`), then combined for every vector.
+
+    Args:
+      amplitudes: (K, 11) or (11,) amplitudes, degrees.
+      n_steps: Number of control steps.
+      control_timestep: Control step, s.
+      config: CPG constants.
+
+    Returns:
+      (K, n_steps, 12) joint targets in radians (target of step t = z((t + 1) Δt)).
+    """
+    config = config or CPGConfig()
+    amps = np.atleast_2d(np.asarray(amplitudes, dtype=np.float64))
+    if amps.shape[1] != N_AMPLITUDES:
+        raise ValueError(f"amplitudes need {N_AMPLITUDES} columns, got {amps.shape}")
+    unit = _unit_responses(n_steps, control_timestep, config)  # (n_steps, 11, 12)
+    offsets = config.anatomical_offsets()
+    z = offsets + np.einsum("kp,tpj->ktj", amps, unit)
+    return to_joint_angles(z)
+
+
+_UNIT_CACHE: dict = {}
+
+
+def _unit_responses(n_steps: int, control_timestep: float, config: CPGConfig) -> np.ndarray:
+    key = (n_steps, float(control_timestep), config)
+    if key not in _UNIT_CACHE:
+        cpg = CPG(np.eye(N_AMPLITUDES), config)
+        out = np.empty((n_steps, N_AMPLITUDES, 12))
+        offsets = config.anatomical_offsets()
+        for t in range(n_steps):
+            cpg.step(control_timestep)
+            out[t] = cpg.z - offsets
+        if len(_UNIT_CACHE) > 16:
+            _UNIT_CACHE.clear()
+        _UNIT_CACHE[key] = out
+    return _UNIT_CACHE[key]
+
+
+# The DMP term (Eq. 5.19-5.20): periodic kernels of Gams et al. (2009).
+N_KERNELS = 15
+
+
+def dmp_kernels(phase, n_kernels: int = N_KERNELS, width: float | None = None) -> np.ndarray:
+    """ψₖ(φ) = exp(h (cos(φ − cₖ) − 1)), cₖ = 2πk/N, h = 2.5 N (Eq. 5.20).
+
+    Returns:
+      (..., N) kernel activations.
+    """
+    h = 2.5 * n_kernels if width is None else width
+    centres = 2.0 * np.pi * np.arange(n_kernels) / n_kernels
+    return np.exp(h * (np.cos(np.asarray(phase)[..., None] - centres) - 1.0))
+
+
+def dmp_output(phase, theta: np.ndarray) -> np.ndarray:
+    """F = Σ ψₖ θₖ / Σ ψₖ (Eq. 5.19) for one or more phases."""
+    psi = dmp_kernels(phase, len(theta))
+    return (psi @ theta) / psi.sum(axis=-1)

@@ -1,0 +1,462 @@
+"""DARwIn-OP domain: the humanoid of the study, walking or balancing on a CPG (thesis Ch. 5-6).
+
+Model (`xml/darwin.xml`) from `darwin_op_facts.md`: 20 joints with the Webots axes, ranges,
+masses, centres of mass and inertias (total 2.925 kg); box feet 0.105 × 0.066 m; torso IMU
+(accelerometer, gyro, orientation) and a touch sensor under each sole. Decisions:
+
+* **Torso centre of mass**: the Webots value (−0.050, 0, −0.080) m, not the CAD-derived
+  (−0.019, −0.003, −0.039) (facts Sec. 11.1). The study's numbers come from the Webots
+  model, so we keep its mass distribution; the whole-robot centre of mass then sits 13 mm
+  behind the foot centres, inside the 105 mm long support.
+* **Servos** (MX-28, facts Sec. 8): MuJoCo position actuators with kp = 40 N·m/rad and
+  a torque limit of 2.5 N·m (stall torque at 12 V); joint damping 0.43 N·m·s/rad, the
+  slope of the MX-28 torque-speed line (2.5 N·m stall / 5.76 rad/s no-load), i.e. the
+  back-EMF braking of the motor; armature 0.005 kg·m² (a coreless rotor of about
+  1.3e-7 kg·m² reflected through the 193:1 gearbox). The sources give no SI stiffness;
+  kp was chosen with `python -m baselines.calibrate_cpg`.
+* **Contacts**: soft-ish rubber soles (friction 1.0, solref 0.008 s); the feet collide with
+  each other and with the floor, every other robot geom only with the floor.
+* **Timing**: physics step 2 ms (implicit-fast integrator), control step 16 ms (the Webots
+  DARwIn-OP worlds' basic time step), 1000 control steps = 16 s per episode.
+* **Pose**: arms hang 10° out from the body with the elbows bent 30°, head level; the
+  task holds them with their servos (not part of the action). The legs start in the CPG's
+  standing posture (its offsets O), feet flat on the floor, each leg joint perturbed by
+  U(−0.01, 0.01) rad from the task's random generator.
+* **Fall**: the torso origin (shoulder axis) below 0.22 m (0.34 m standing) or the torso
+  tilted more than 50° from upright.
+
+Tasks (control step 16 ms, 1000 steps; action = the 12 leg joint targets, each scaled
+from [−1, 1] onto the joint's range, in the order `cpg.LEG_JOINTS`):
+
+* `walk`: reward = forward (x) displacement of the torso during the step, m; the return is
+  the distance walked. A fall ends the episode with discount 0.
+* `balance`: reward = −(mean over stance feet of the horizontal distance from the foot's
+  centre of pressure to its sole centre), m; a stance foot carries more than 5 % of the
+  body weight; 0 when no foot does. A fall ends the episode with discount 0.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+
+import mujoco as mj
+import numpy as np
+from dm_control import mujoco
+from dm_control.rl import control
+from dm_control.utils import containers
+from dm_env import specs
+
+from cpg_suite import base, cpg
+
+_CONTROL_TIMESTEP = 0.016  # s: Webots DARwIn-OP basicTimeStep.
+_DEFAULT_TIME_LIMIT = 16.0  # s: 1000 control steps ("1000 timesteps" of the study).
+_FALL_HEIGHT = 0.22  # m: torso origin height below which the robot has fallen.
+_FALL_TILT_COS = float(np.cos(np.deg2rad(50.0)))  # torso z-axis · world z below this: fallen.
+_INIT_NOISE = 0.01  # rad: U(−x, x) added to each leg joint of the initial posture.
+_STANCE_FRACTION = 0.05  # of body weight: a foot carrying more is a stance foot.
+_WALK_VIZ_SPEED = 0.2  # m/s shown as full reward colour.
+_BALANCE_VIZ_DISTANCE = 0.05  # m of COP offset shown as zero reward colour.
+
+ARM_JOINTS = (
+    "ShoulderL",
+    "ArmUpperL",
+    "ArmLowerL",
+    "ShoulderR",
+    "ArmUpperR",
+    "ArmLowerR",
+    "Neck",
+    "Head",
+)
+# Arms 10° out from hanging vertical (±0.785), elbows bent 30° from straight (±1.571), head
+# level (+0.70, the ROBOTIS walking engine's eye-tilt offset).
+ARM_POSE = np.array([0.0, 0.61, 1.05, 0.0, -0.61, -1.05, 0.0, 0.70])
+
+OBJECTIVES = ("walk", "balance")
+SUITE = containers.TaggedTasks()
+
+
+def get_model_and_assets() -> tuple[str, dict[str, bytes]]:
+    """Returns the DARwIn-OP model's XML string and its assets."""
+    return base.model_and_assets("darwin.xml")
+
+
+@SUITE.add("benchmarking")
+def walk(
+    time_limit: float = _DEFAULT_TIME_LIMIT,
+    random=None,
+    posture: np.ndarray | None = None,
+    init_noise: float = _INIT_NOISE,
+    servo_gain: float | None = None,
+    environment_kwargs: dict | None = None,
+) -> control.Environment:
+    """Returns the walking task: reward = forward torso displacement per step (m).
+
+    Args:
+      time_limit: Episode length in seconds (62.5 control steps per second).
+      random: Seed or `np.random.RandomState` for the initial state.
+      posture: The 12 leg joint angles to start from, rad (default: the standing posture of
+        the default `cpg.CPGConfig`).
+      init_noise: Half-width of the uniform perturbation of each leg joint, rad.
+      servo_gain: Position gain kp of every servo, N·m/rad (default: the model's 40).
+      environment_kwargs: Passed to `control.Environment`.
+
+    Returns:
+      A `control.Environment`.
+    """
+    return _environment(
+        "walk", time_limit, random, posture, init_noise, servo_gain, environment_kwargs
+    )
+
+
+@SUITE.add("benchmarking")
+def balance(
+    time_limit: float = _DEFAULT_TIME_LIMIT,
+    random=None,
+    posture: np.ndarray | None = None,
+    init_noise: float = _INIT_NOISE,
+    servo_gain: float | None = None,
+    environment_kwargs: dict | None = None,
+) -> control.Environment:
+    """Returns the balance task: reward = −(COP distance to the stance sole centre), m.
+
+    Args: as for `walk`.
+
+    Returns:
+      A `control.Environment`.
+    """
+    return _environment(
+        "balance", time_limit, random, posture, init_noise, servo_gain, environment_kwargs
+    )
+
+
+def _environment(
+    objective, time_limit, random, posture, init_noise, servo_gain, environment_kwargs
+):
+    physics = Physics.from_xml_string(*get_model_and_assets())
+    if servo_gain is not None:
+        physics.set_servo_gain(servo_gain)
+    task = CPGTask(objective, posture=posture, init_noise=init_noise, random=random)
+    environment_kwargs = dict(environment_kwargs or {})
+    environment_kwargs.setdefault("control_timestep", _CONTROL_TIMESTEP)
+    return control.Environment(physics, task, time_limit=time_limit, **environment_kwargs)
+
+
+class Physics(mujoco.Physics):
+    """DARwIn-OP physics with named accessors (addresses looked up by name at load)."""
+
+    def _reload_from_data(self, data) -> None:
+        super()._reload_from_data(data)
+        model = self.model
+        self._leg_qpos = np.array(
+            [model.jnt_qposadr[model.name2id(n, "joint")] for n in cpg.LEG_JOINTS]
+        )
+        self._leg_dof = np.array(
+            [model.jnt_dofadr[model.name2id(n, "joint")] for n in cpg.LEG_JOINTS]
+        )
+        self._arm_qpos = np.array(
+            [model.jnt_qposadr[model.name2id(n, "joint")] for n in ARM_JOINTS]
+        )
+        self._leg_act = np.array([model.name2id(n, "actuator") for n in cpg.LEG_JOINTS])
+        self._arm_act = np.array([model.name2id(n, "actuator") for n in ARM_JOINTS])
+        self._torso = model.name2id("torso", "body")
+        root = model.name2id("root", "joint")
+        self._root_qpos = int(model.jnt_qposadr[root])
+        self._root_dof = int(model.jnt_dofadr[root])
+        self._feet = np.array([model.name2id("foot_l", "geom"), model.name2id("foot_r", "geom")])
+        self._floor = model.name2id("floor", "geom")
+        self._foot_index = {int(self._feet[0]): 0, int(self._feet[1]): 1}
+        if model.opt.cone != mj.mjtCone.mjCONE_PYRAMIDAL or np.any(
+            model.geom_condim[[self._floor, *self._feet]] != 3
+        ):
+            raise ValueError("centres_of_pressure expects condim 3 contacts and a pyramidal cone")
+        self._soles = np.array([model.name2id("sole_l", "site"), model.name2id("sole_r", "site")])
+
+        def sensor(name):
+            i = model.name2id(name, "sensor")
+            adr, dim = int(model.sensor_adr[i]), int(model.sensor_dim[i])
+            return slice(adr, adr + dim)
+
+        self._gyro = sensor("gyro")
+        self._accelerometer = sensor("accelerometer")
+        self._orientation = sensor("torso_orientation")
+        self._touch = slice(sensor("touch_l").start, sensor("touch_r").stop)
+        self._leg_range = model.jnt_range[[model.name2id(n, "joint") for n in cpg.LEG_JOINTS]]
+        self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
+
+    # Joints and servos.
+    def set_servo_gain(self, kp: float) -> None:
+        """Sets the position gain of every servo, N·m/rad.
+
+        Raises:
+          ValueError: If kp is not a positive number.
+        """
+        if not (np.isfinite(kp) and kp > 0):
+            raise ValueError(f"servo gain must be a positive number of N·m/rad, got {kp!r}")
+        self.model.actuator_gainprm[:, 0] = kp
+        self.model.actuator_biasprm[:, 1] = -kp
+
+    def servo_gain(self) -> float:
+        """The position gain of the servos, N·m/rad."""
+        return float(self.model.actuator_gainprm[0, 0])
+
+    def leg_joint_angles(self) -> np.ndarray:
+        """The 12 leg joint angles, rad, in `cpg.LEG_JOINTS` order."""
+        return self.data.qpos[self._leg_qpos]  # Fancy indexing returns a copy.
+
+    def leg_joint_velocities(self) -> np.ndarray:
+        """The 12 leg joint velocities, rad/s."""
+        return self.data.qvel[self._leg_dof]
+
+    def leg_joint_range(self) -> np.ndarray:
+        """(12, 2) joint ranges, rad."""
+        return self._leg_range.copy()
+
+    def set_leg_targets(self, angles: np.ndarray) -> None:
+        """Sets the leg servo targets, rad (clipped to the joint ranges by MuJoCo)."""
+        self.data.ctrl[self._leg_act] = angles
+
+    def set_arm_targets(self, angles: np.ndarray) -> None:
+        """Sets the arm and head servo targets, rad (`ARM_JOINTS` order)."""
+        self.data.ctrl[self._arm_act] = angles
+
+    # Torso.
+    def torso_position(self) -> np.ndarray:
+        """Torso origin (mid-point of the shoulder axes) in the world, m."""
+        return self.data.xpos[self._torso].copy()
+
+    def torso_height(self) -> float:
+        """Height of the torso origin above the floor, m."""
+        return float(self.data.xpos[self._torso, 2])
+
+    def forward_position(self) -> float:
+        """x of the torso origin, m (the robot faces +x at the start)."""
+        return float(self.data.xpos[self._torso, 0])
+
+    def lateral_position(self) -> float:
+        """y of the torso origin, m."""
+        return float(self.data.xpos[self._torso, 1])
+
+    def torso_orientation(self) -> np.ndarray:
+        """Torso orientation quaternion (w, x, y, z) from the IMU."""
+        return self.data.sensordata[self._orientation].copy()
+
+    def torso_upright(self) -> float:
+        """z component of the torso's z axis (1 upright, 0 lying)."""
+        return float(self.data.xmat[self._torso, 8])
+
+    def torso_velocity(self) -> np.ndarray:
+        """Linear velocity of the torso origin in the world frame, m/s."""
+        return self.data.qvel[self._root_dof : self._root_dof + 3].copy()
+
+    def gyro(self) -> np.ndarray:
+        """IMU angular velocity in the torso frame, rad/s."""
+        return self.data.sensordata[self._gyro].copy()
+
+    def accelerometer(self) -> np.ndarray:
+        """IMU specific force in the torso frame, m/s²."""
+        return self.data.sensordata[self._accelerometer].copy()
+
+    def fallen(self) -> bool:
+        """The torso is below 0.22 m or tilted more than 50° (see module docstring)."""
+        return self.torso_height() < _FALL_HEIGHT or self.torso_upright() < _FALL_TILT_COS
+
+    # Feet.
+    def foot_touch(self) -> np.ndarray:
+        """Normal force on the (left, right) sole touch sensors, N."""
+        return self.data.sensordata[self._touch].copy()
+
+    def sole_centres(self) -> np.ndarray:
+        """(2, 3) centres of the (left, right) soles in the world, m."""
+        return self.data.site_xpos[self._soles]
+
+    def _foot_loads(self) -> tuple[list[float], list[list[float]]]:
+        """Normal force of each foot and the force-weighted sum of its contact points.
+
+        The normal force of a contact is the sum of its four pyramid-edge forces (condim 3,
+        pyramidal cone: checked when the model is loaded), as `mj_contactForce` computes
+        it; a plain loop over the few contacts is the fastest way on this hot path.
+        """
+        data = self.data.ptr
+        force = [0.0, 0.0]
+        weighted = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+        if data.ncon:
+            contacts = data.contact
+            efc = data.efc_force.tolist()
+            floor, feet = self._floor, self._foot_index
+            for (g0, g1), adr, pos in zip(
+                contacts.geom.tolist(), contacts.efc_address.tolist(), contacts.pos.tolist()
+            ):
+                foot = feet.get(g1) if g0 == floor else feet.get(g0) if g1 == floor else None
+                if foot is None or adr < 0:
+                    continue
+                normal = efc[adr] + efc[adr + 1] + efc[adr + 2] + efc[adr + 3]
+                if normal > 0.0:
+                    force[foot] += normal
+                    w = weighted[foot]
+                    w[0] += normal * pos[0]
+                    w[1] += normal * pos[1]
+                    w[2] += normal * pos[2]
+        return force, weighted
+
+    def centres_of_pressure(self) -> tuple[np.ndarray, np.ndarray]:
+        """Centre of pressure and normal force of each foot, from its floor contacts.
+
+        Returns:
+          `(cop, force)`: cop (2, 3), m, NaN for a foot without contact; force (2,), N.
+        """
+        force, weighted = self._foot_loads()
+        cop = np.full((2, 3), np.nan)
+        for foot in (0, 1):
+            if force[foot] > 0.0:
+                cop[foot] = np.array(weighted[foot]) / force[foot]
+        return cop, np.array(force)
+
+    def cop_offsets(self) -> tuple[np.ndarray, np.ndarray]:
+        """Horizontal distance from each foot's COP to its sole centre, and the stance mask.
+
+        Returns:
+          `(distance, stance)`: distance (2,), m (NaN without contact); stance (2,) bool, a
+          foot carrying more than 5 % of the body weight.
+        """
+        distance, stance = self._cop_offsets()
+        return np.array(distance), np.array(stance)
+
+    def _cop_offsets(self) -> tuple[list[float], list[bool]]:
+        force, weighted = self._foot_loads()
+        soles = self.data.site_xpos[self._soles].tolist()
+        threshold = _STANCE_FRACTION * self._weight
+        distance, stance = [math.nan, math.nan], [False, False]
+        for foot in (0, 1):
+            f = force[foot]
+            if f > 0.0:
+                distance[foot] = math.hypot(
+                    weighted[foot][0] / f - soles[foot][0], weighted[foot][1] / f - soles[foot][1]
+                )
+                stance[foot] = f > threshold
+        return distance, stance
+
+    def balance_reward(self) -> float:
+        """−(mean over stance feet of the COP distance to the sole centre), m; 0 without."""
+        distance, stance = self._cop_offsets()
+        offsets = [d for d, s in zip(distance, stance) if s]
+        return -sum(offsets) / len(offsets) if offsets else 0.0
+
+    # Poses.
+    def set_standing_pose(
+        self, leg_angles: np.ndarray, arm_angles: np.ndarray = ARM_POSE, clearance: float = 0.0
+    ) -> None:
+        """Puts the robot at rest in a pose, torso upright at the origin, lowest sole corner
+        `clearance` above the floor; servo targets set to the pose."""
+        data = self.data
+        data.qpos[:] = self.model.qpos0
+        data.qvel[:] = 0.0
+        data.qpos[self._leg_qpos] = leg_angles
+        data.qpos[self._arm_qpos] = arm_angles
+        data.qpos[self._root_qpos : self._root_qpos + 3] = (0.0, 0.0, 0.5)
+        data.qpos[self._root_qpos + 3 : self._root_qpos + 7] = (1.0, 0.0, 0.0, 0.0)
+        mj.mj_kinematics(self.model.ptr, data.ptr)
+        lowest = min(self._lowest_corner(g) for g in self._feet)
+        data.qpos[self._root_qpos + 2] += clearance - lowest
+        self.set_leg_targets(leg_angles)
+        self.set_arm_targets(arm_angles)
+        self.after_reset()
+
+    def _lowest_corner(self, geom: int) -> float:
+        half = self.model.geom_size[geom]
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        world = (
+            self.data.geom_xpos[geom] + (corners * half) @ self.data.geom_xmat[geom].reshape(3, 3).T
+        )
+        return float(world[:, 2].min())
+
+    # Actions.
+    def targets_to_action(self, angles: np.ndarray) -> np.ndarray:
+        """Leg joint angles (rad) -> normalized action in [−1, 1] (clipped)."""
+        low, high = self._leg_range[:, 0], self._leg_range[:, 1]
+        return np.clip(2.0 * (np.asarray(angles) - low) / (high - low) - 1.0, -1.0, 1.0)
+
+    def action_to_targets(self, action: np.ndarray) -> np.ndarray:
+        """Normalized action in [−1, 1] -> leg joint angles, rad."""
+        low, high = self._leg_range[:, 0], self._leg_range[:, 1]
+        return low + (np.asarray(action) + 1.0) * 0.5 * (high - low)
+
+
+class CPGTask(base.Task):
+    """Walk or balance with 12 leg joint targets (thesis Ch. 5-6)."""
+
+    def __init__(
+        self,
+        objective: str,
+        posture: np.ndarray | None = None,
+        init_noise: float = _INIT_NOISE,
+        random=None,
+    ):
+        """Initializes the task.
+
+        Args:
+          objective: `"walk"` or `"balance"`.
+          posture: Starting leg joint angles (12,), rad (default: the CPG standing posture).
+          init_noise: Half-width of the uniform joint perturbation at reset, rad (≥ 0).
+          random: Seed or `np.random.RandomState`.
+
+        Raises:
+          ValueError: On an unknown objective, a posture of the wrong shape, or negative
+            noise.
+        """
+        if objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+        posture = cpg.CPGConfig().offsets() if posture is None else np.asarray(posture, float)
+        if posture.shape != (12,) or not np.all(np.isfinite(posture)):
+            raise ValueError(f"posture must be 12 finite leg joint angles, got {posture!r}")
+        if not init_noise >= 0:
+            raise ValueError(f"init_noise must be ≥ 0, got {init_noise!r}")
+        self.objective = objective
+        self.posture = posture
+        self.init_noise = float(init_noise)
+        self._action_spec = specs.BoundedArray((12,), np.float64, -1.0, 1.0, name="leg_targets")
+        self.start_position = np.zeros(3)
+        self._x_before = 0.0
+        super().__init__(random=random)
+
+    def action_spec(self, physics):
+        del physics
+        return self._action_spec
+
+    def initialize_episode(self, physics: Physics) -> None:
+        noise = self.random.uniform(-self.init_noise, self.init_noise, size=12)
+        physics.set_standing_pose(self.posture + noise)
+        self.start_position = physics.torso_position()
+        self._x_before = self.start_position[0]
+        super().initialize_episode(physics)
+
+    def before_step(self, action, physics: Physics) -> None:
+        action = base.check_continuous_action(action, self._action_spec)
+        physics.set_leg_targets(physics.action_to_targets(action))
+        self._x_before = physics.forward_position()
+
+    def get_observation(self, physics: Physics) -> collections.OrderedDict:
+        """Leg joint angles and velocities, torso orientation, height and velocity, IMU, touch."""
+        obs = collections.OrderedDict()
+        obs["joint_angles"] = physics.leg_joint_angles()
+        obs["joint_velocities"] = physics.leg_joint_velocities()
+        obs["torso_orientation"] = physics.torso_orientation()
+        obs["torso_height"] = np.array([physics.torso_height()])
+        obs["torso_velocity"] = physics.torso_velocity()
+        obs["gyro"] = physics.gyro()
+        obs["accelerometer"] = physics.accelerometer()
+        obs["foot_touch"] = physics.foot_touch()
+        return obs
+
+    def get_reward(self, physics: Physics) -> float:
+        if self.objective == "walk":
+            return physics.forward_position() - self._x_before
+        return physics.balance_reward()
+
+    def get_termination(self, physics: Physics):
+        return 0.0 if physics.fallen() else None
+
+    def reward_to_unit(self, reward: float) -> float:
+        if self.objective == "walk":
+            return 0.5 + 0.5 * reward / (_WALK_VIZ_SPEED * _CONTROL_TIMESTEP)
+        return 1.0 + reward / _BALANCE_VIZ_DISTANCE
