@@ -229,6 +229,8 @@ def test_centre_of_pressure_matches_mj_contact_force():
             if other not in physics._foot_index:
                 continue
             mj.mj_contactForce(model, data, i, f6)
+            if f6[0] <= 0:  # A (numerically) pulling contact carries no load.
+                continue
             foot = physics._foot_index[other]
             force_ref[foot] += f6[0]
             weighted[foot] += f6[0] * data.contact.pos[i]
