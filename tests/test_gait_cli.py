@@ -1,0 +1,94 @@
+"""`baselines.evaluate` and `cpg_suite.explore` from the command line."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from cpg_suite import cpg
+
+
+def run(module, *args, env=None):
+    return subprocess.run(
+        [sys.executable, "-m", module, *args], capture_output=True, text=True, timeout=600, env=env
+    )
+
+
+def test_evaluate_prints_a_json_line_per_seed_and_a_summary(tmp_path):
+    gait = tmp_path / "gait.json"
+    gait.write_text(json.dumps(dict(zip(cpg.AMPLITUDE_NAMES, cpg.PRESETS["hand_tuned"]))))
+    out = run(
+        "baselines.evaluate", "--task=darwin_walk", f"--params={gait}", "--seeds=0-1", "--steps=150"
+    )
+    assert out.returncode == 0, out.stderr
+    lines = [json.loads(line) for line in out.stdout.splitlines()]
+    assert [r["seed"] for r in lines[:2]] == [0, 1]
+    for r in lines[:2]:
+        assert set(r) >= {"seed", "distance_m", "lateral_m", "fell", "fall_step"}
+    assert lines[2]["summary"] and lines[2]["n"] == 2
+    # The file and the preset give the same numbers.
+    preset = run("baselines.evaluate", "--params=hand_tuned", "--seeds=0-1", "--steps=150")
+    assert preset.stdout.splitlines()[:2] == out.stdout.splitlines()[:2]
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--params=walk_fast"], "neither a preset"),
+        (["--seeds=3-1"], "malformed seeds"),
+        (["--seeds=a"], "malformed seeds"),
+        (["--task=pole_balance"], "unknown --task"),
+        (["--steps=0"], "--steps"),
+    ],
+)
+def test_evaluate_bad_input(args, words):
+    out = run("baselines.evaluate", *args)
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and words in lines[0]
+
+
+def test_evaluate_bad_params_file(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"hip": 1.0}))
+    out = run("baselines.evaluate", f"--params={bad}")
+    assert out.returncode == 2 and "missing" in out.stderr
+
+
+@pytest.mark.parametrize("fmt, suffix", [("gif", ".gif"), ("mp4", ".mp4")])
+def test_explore_renders_a_video_and_a_filmstrip(tmp_path, fmt, suffix):
+    pytest.importorskip("PIL")
+    if fmt == "mp4":
+        pytest.importorskip("imageio_ffmpeg")
+    out = run(
+        "cpg_suite.explore",
+        "--params=hand_tuned",
+        f"--out={tmp_path}",
+        "--steps=60",
+        "--width=64",
+        "--height=48",
+        f"--format={fmt}",
+        "--frames=4",
+    )
+    assert out.returncode == 0, out.stderr
+    assert (tmp_path / f"hand_tuned{suffix}").stat().st_size > 1000
+    from PIL import Image
+
+    strip = Image.open(tmp_path / "hand_tuned_filmstrip.png")
+    assert strip.size == (4 * 64, 48 + 24)
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--camera=nope"], "unknown camera"),
+        (["--task=pole_balance"], "unknown --task"),
+        (["--params=nope"], "--params"),
+        (["--frames=0"], "--frames"),
+    ],
+)
+def test_explore_bad_input(tmp_path, args, words):
+    out = run("cpg_suite.explore", f"--out={tmp_path}", *args)
+    assert out.returncode == 2
+    assert len(out.stderr.strip().splitlines()) == 1 and words in out.stderr
