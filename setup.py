@@ -45,10 +45,19 @@ setup(
     ],
     extras_require={
         # The tests also render a gait video (Pillow for GIF/PNG, imageio + ffmpeg for MP4).
-        "test": ["pytest>=7,<10", "ruff>=0.5", "pillow>=10,<14", "imageio>=2.30,<3",
-                 "imageio-ffmpeg>=0.5,<1"],
-        "plots": ["matplotlib>=3.7,<4", "pillow>=10,<14", "imageio>=2.30,<3",
-                  "imageio-ffmpeg>=0.5,<1"],
+        "test": [
+            "pytest>=7,<10",
+            "ruff>=0.5",
+            "pillow>=10,<14",
+            "imageio>=2.30,<3",
+            "imageio-ffmpeg>=0.5,<1",
+        ],
+        "plots": [
+            "matplotlib>=3.7,<4",
+            "pillow>=10,<14",
+            "imageio>=2.30,<3",
+            "imageio-ffmpeg>=0.5,<1",
+        ],
         "gym": ["gymnasium>=1.0,<2", "shimmy[dm-control]>=2.0,<3"],
     },
     classifiers=[

@@ -13,6 +13,7 @@ import cpg_suite
 from cpg_suite import cpg
 
 DARWIN_TASKS = ("darwin_walk", "darwin_balance")
+_CONTROL_TIMESTEP = 0.016  # s: the DARwIn-OP tasks' control step.
 
 
 def evaluate_gait(
@@ -39,16 +40,21 @@ def evaluate_gait(
       `error` (a physics error's message, which counts as a fall) when one occurred.
     """
     config = config or cpg.CPGConfig()
+    # The CPG's open-loop trajectory (`cpg.trajectories`, checked against stepping `cpg.CPG`
+    # in the tests): the same targets the batched evaluators use, bit for bit.
+    targets = cpg.trajectories(amplitudes, steps, _CONTROL_TIMESTEP, config)[0]
     kwargs = {"random": seed, "posture": config.offsets(), "time_limit": float("inf")}
     env = cpg_suite.load(task, task_kwargs={**kwargs, **(task_kwargs or {})})
     physics = env.physics
-    pattern = cpg.CPG(amplitudes, config)
-    dt = env.control_timestep()
+    if env.control_timestep() != _CONTROL_TIMESTEP:
+        raise ValueError(
+            f"{task} has a control step of {env.control_timestep()} s, expected {_CONTROL_TIMESTEP}"
+        )
     env.reset()
     start = physics.torso_position()
     fall_step, total, error = None, 0.0, None
     for t in range(steps):
-        action = physics.targets_to_action(pattern.step(dt))
+        action = physics.targets_to_action(targets[t])
         try:
             ts = env.step(action)
         except rl_control.PhysicsError as e:  # A divergent state is a failed trial.

@@ -378,8 +378,12 @@ def trajectories(
     if amps.shape[1] != N_AMPLITUDES:
         raise ValueError(f"amplitudes need {N_AMPLITUDES} columns, got {amps.shape}")
     unit = _unit_responses(n_steps, control_timestep, config)  # (n_steps, 11, 12)
-    offsets = config.anatomical_offsets()
-    z = offsets + np.einsum("kp,tpj->ktj", amps, unit)
+    # Accumulate in a fixed order, one amplitude at a time: each row's arithmetic is then the
+    # same whatever the batch size (a BLAS contraction may block differently per shape), so
+    # a vector evaluated alone or in a batch gets bit-identical targets.
+    z = np.broadcast_to(config.anatomical_offsets(), (len(amps), n_steps, 12)).copy()
+    for p in range(N_AMPLITUDES):
+        z += amps[:, p, None, None] * unit[None, :, p, :]
     return to_joint_angles(z)
 
 

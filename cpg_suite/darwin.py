@@ -76,6 +76,23 @@ OBJECTIVES = ("walk", "balance")
 SUITE = containers.TaggedTasks()
 
 
+def torso_upright(quaternion: np.ndarray) -> np.ndarray:
+    """z component of the torso's z axis from its orientation quaternion(s) (w, x, y, z)."""
+    q = np.asarray(quaternion, dtype=np.float64)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return (w * w - x * x - y * y + z * z) / (w * w + x * x + y * y + z * z)
+
+
+def has_fallen(root_qpos: np.ndarray) -> np.ndarray:
+    """The fall test of the tasks, from the free joint's 7 coordinates (x, y, z, quaternion).
+
+    The torso origin below 0.22 m, or the torso tilted more than 50° from upright. Shared by
+    `Physics.fallen` and the batched evaluators, so both give the same verdicts.
+    """
+    q = np.asarray(root_qpos, dtype=np.float64)
+    return (q[..., 2] < _FALL_HEIGHT) | (torso_upright(q[..., 3:7]) < _FALL_TILT_COS)
+
+
 def get_model_and_assets() -> tuple[str, dict[str, bytes]]:
     """Returns the DARwIn-OP model's XML string and its assets."""
     return base.model_and_assets("darwin.xml")
@@ -241,9 +258,13 @@ class Physics(mujoco.Physics):
         """Torso orientation quaternion (w, x, y, z) from the IMU."""
         return self.data.sensordata[self._orientation].copy()
 
+    def root_qpos(self) -> np.ndarray:
+        """The free joint's coordinates: torso position (3) and quaternion (4)."""
+        return self.data.qpos[self._root_qpos : self._root_qpos + 7].copy()
+
     def torso_upright(self) -> float:
         """z component of the torso's z axis (1 upright, 0 lying)."""
-        return float(self.data.xmat[self._torso, 8])
+        return float(torso_upright(self.data.qpos[self._root_qpos + 3 : self._root_qpos + 7]))
 
     def torso_velocity(self) -> np.ndarray:
         """Linear velocity of the torso origin in the world frame, m/s."""
@@ -258,8 +279,8 @@ class Physics(mujoco.Physics):
         return self.data.sensordata[self._accelerometer].copy()
 
     def fallen(self) -> bool:
-        """The torso is below 0.22 m or tilted more than 50° (see module docstring)."""
-        return self.torso_height() < _FALL_HEIGHT or self.torso_upright() < _FALL_TILT_COS
+        """The torso is below 0.22 m or tilted more than 50° (`has_fallen`)."""
+        return bool(has_fallen(self.data.qpos[self._root_qpos : self._root_qpos + 7]))
 
     # Feet.
     def foot_touch(self) -> np.ndarray:

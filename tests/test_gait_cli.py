@@ -27,9 +27,22 @@ def test_evaluate_prints_a_json_line_per_seed_and_a_summary(tmp_path):
     for r in lines[:2]:
         assert set(r) >= {"seed", "distance_m", "lateral_m", "fell", "fall_step"}
     assert lines[2]["summary"] and lines[2]["n"] == 2
-    # The file and the preset give the same numbers.
+    # The file and the preset give the same numbers, and so does the fast evaluator
+    # (its lines lack only the environment's "return").
     preset = run("baselines.evaluate", "--params=hand_tuned", "--seeds=0-1", "--steps=150")
     assert preset.stdout.splitlines()[:2] == out.stdout.splitlines()[:2]
+    fast = run(
+        "baselines.evaluate",
+        "--params=hand_tuned",
+        "--seeds=0-1",
+        "--steps=150",
+        "--fast",
+        "--threads=2",
+    )
+    assert fast.returncode == 0, fast.stderr
+    for line, ref in zip(fast.stdout.splitlines()[:2], lines[:2]):
+        got = json.loads(line)
+        assert got == {k: ref[k] for k in got}
 
 
 @pytest.mark.parametrize(
@@ -40,6 +53,7 @@ def test_evaluate_prints_a_json_line_per_seed_and_a_summary(tmp_path):
         (["--seeds=a"], "malformed seeds"),
         (["--task=pole_balance"], "unknown --task"),
         (["--steps=0"], "--steps"),
+        (["--fast", "--threads=0"], "--threads"),
     ],
 )
 def test_evaluate_bad_input(args, words):
