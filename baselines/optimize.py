@@ -1,0 +1,224 @@
+"""The round loop shared by the gait optimizers (CEM, CMA-ES): cost, bookkeeping, checkpoints.
+
+An optimizer proposes a batch of amplitude vectors (`ask`), learns from their costs
+(`tell`), and can save and restore its whole state (`state_dict` / `load_state_dict`,
+JSON-serializable). `run_rounds` evaluates each batch with the batched rollout evaluator,
+keeps the best vector seen, appends a row to `progress.csv`, writes `checkpoint.json`
+atomically after every round, and on resume continues from it bit-identically.
+
+Cost of a trial (thesis Sec. 6.2): −distance (m) + fall_penalty · [fell] +
+lateral_penalty · |lateral displacement| (m), averaged over the initial-state seeds of the
+round (the same seeds for every candidate). The study states a fall penalty and a lateral
+penalty but not their values; ours are flags.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from baselines import runs
+from baselines.batch_eval import BatchEvaluator, BatchResult
+from cpg_suite import cpg
+
+PROGRESS_FIELDS = [
+    "round",
+    "best_cost",
+    "best_distance_m",
+    "best_fell",
+    "mean_distance_m",
+    "mean_fell",
+    "falls",
+    "cost_mean",
+    "sigma",
+    "evaluations",
+    "sim_steps",
+    "steps_per_s",
+    "wall_s",
+]
+
+
+class CheckpointError(Exception):
+    """A checkpoint that cannot be read or belongs to another configuration."""
+
+
+def trial_costs(result: BatchResult, fall_penalty: float, lateral_penalty: float) -> np.ndarray:
+    """Cost per candidate, averaged over its initial states (lower is better)."""
+    per_trial = (
+        -result.distance_m + fall_penalty * result.fell + lateral_penalty * np.abs(result.lateral_m)
+    )
+    return per_trial.mean(axis=1)
+
+
+def _amplitudes_json(vector: np.ndarray) -> dict:
+    return {"amplitudes": {n: float(v) for n, v in zip(cpg.AMPLITUDE_NAMES, vector)}}
+
+
+def _read_checkpoint(path: str, identity: dict) -> dict:
+    try:
+        with open(path, encoding="utf-8") as f:
+            checkpoint = json.load(f)
+    except (OSError, json.JSONDecodeError) as e:
+        raise CheckpointError(f"cannot read checkpoint {path}: {e}") from None
+    if not isinstance(checkpoint, dict) or checkpoint.get("identity") != identity:
+        raise CheckpointError(
+            f"checkpoint {path} belongs to another configuration; use another --run_name "
+            "or --overwrite"
+        )
+    return checkpoint
+
+
+def run_rounds(
+    optimizer,
+    evaluator: BatchEvaluator,
+    run_dir: str,
+    *,
+    rounds: int,
+    eval_seeds: list[int],
+    fall_penalty: float,
+    lateral_penalty: float,
+    identity: dict,
+    resume: bool = False,
+    log: Callable[[str], None] = print,
+) -> dict:
+    """Runs `rounds` rounds of `optimizer` and writes the run files.
+
+    Args:
+      optimizer: Has `ask() -> (K, 11)`, `tell(samples, costs)`, `mean` (the current
+        distribution mean), `sigma` (its average standard deviation), `state_dict()` and
+        `load_state_dict(d)`.
+      evaluator: The batched evaluator.
+      run_dir: The run directory (already created, with config.json).
+      rounds: Number of rounds.
+      eval_seeds: Initial-state seeds every candidate is scored on.
+      fall_penalty: Cost added for a fall.
+      lateral_penalty: Cost per metre of lateral displacement.
+      identity: Settings that must match to resume (a foreign checkpoint is refused).
+      resume: Continue from `checkpoint.json` if present.
+      log: Receives one line per round.
+
+    Returns:
+      The summary (also written to `summary.json`).
+
+    Raises:
+      CheckpointError: On a corrupt or foreign checkpoint when resuming.
+    """
+    checkpoint_path = os.path.join(run_dir, "checkpoint.json")
+    progress_path = os.path.join(run_dir, "progress.csv")
+    totals = {"round": 0, "falls_total": 0, "evaluations": 0, "sim_steps": 0, "wall_s": 0.0}
+    best = {"cost": np.inf}
+    rows: list[dict] = []
+    if resume and os.path.exists(checkpoint_path):
+        checkpoint = _read_checkpoint(checkpoint_path, identity)
+        optimizer.load_state_dict(checkpoint["optimizer"])
+        totals, best, rows = checkpoint["totals"], checkpoint["best"], checkpoint["rows"]
+        best["cost"] = float(best["cost"])
+    # progress.csv is rewritten from the checkpoint's rows: a row written after the last
+    # checkpoint (a kill between the two writes) is dropped and recomputed.
+    progress = runs.ProgressCSV(progress_path, PROGRESS_FIELDS, truncate=True)
+    for row in rows:
+        progress.append(row)
+    try:
+        while totals["round"] < rounds:
+            start = time.perf_counter()
+            samples = optimizer.ask()
+            result = evaluator.evaluate(samples, eval_seeds)
+            costs = trial_costs(result, fall_penalty, lateral_penalty)
+            optimizer.tell(samples, costs)
+
+            distance = result.distance_m.mean(axis=1)
+            fell = result.fell.any(axis=1)
+            k = int(np.argmin(costs))
+            totals["round"] += 1
+            totals["falls_total"] += int(result.fell.sum())
+            totals["evaluations"] += int(result.fell.size)
+            totals["sim_steps"] += result.sim_steps
+            if costs[k] < best["cost"]:
+                best = {
+                    "cost": float(costs[k]),
+                    "distance_m": float(distance[k]),
+                    "lateral_m": float(result.lateral_m[k].mean()),
+                    "fell": bool(fell[k]),
+                    "round": totals["round"],
+                    "params": samples[k].tolist(),
+                }
+            elapsed = time.perf_counter() - start
+            totals["wall_s"] += elapsed
+            row = {
+                "round": totals["round"],
+                "best_cost": float(costs[k]),
+                "best_distance_m": float(distance[k]),
+                "best_fell": int(fell[k]),
+                "mean_distance_m": float(distance[0]),
+                "mean_fell": int(fell[0]),
+                "falls": int(result.fell.sum()),
+                "cost_mean": float(costs.mean()),
+                "sigma": float(optimizer.sigma),
+                "evaluations": totals["evaluations"],
+                "sim_steps": totals["sim_steps"],
+                "steps_per_s": round(result.sim_steps / elapsed),
+                "wall_s": round(totals["wall_s"], 3),
+            }
+            rows.append(row)
+            progress.append(row)
+            runs.write_json(
+                checkpoint_path,
+                {
+                    "identity": identity,
+                    "totals": totals,
+                    "best": best,
+                    "rows": rows,
+                    "optimizer": optimizer.state_dict(),
+                },
+            )
+            log(
+                f"round {row['round']:3d}  best {row['best_distance_m']:+.3f} m"
+                f"{' (fell)' if row['best_fell'] else ''}  mean vector "
+                f"{row['mean_distance_m']:+.3f} m{' (fell)' if row['mean_fell'] else ''}  "
+                f"falls {row['falls']:2d}/{len(samples) * len(eval_seeds)}  "
+                f"{row['steps_per_s']:,} sim steps/s"
+            )
+    finally:
+        progress.close()
+
+    # The final mean has not been tried by the algorithm itself (thesis Sec. 6.3): try it.
+    start = time.perf_counter()
+    final = evaluator.evaluate(optimizer.mean, eval_seeds)
+    totals["wall_s"] += time.perf_counter() - start
+    summary = {
+        "best_distance_m": best["distance_m"],
+        "best_round": best["round"],
+        "best_fell": best["fell"],
+        "best_lateral_m": best["lateral_m"],
+        "best_cost": best["cost"],
+        "final_mean_distance_m": float(final.distance_m.mean()),
+        "final_mean_fell": bool(final.fell.any()),
+        "falls_total": totals["falls_total"],
+        "rounds": totals["round"],
+        "evaluations": totals["evaluations"] + int(final.fell.size),
+        "sim_steps": totals["sim_steps"] + final.sim_steps,
+        "wall_s": totals["wall_s"],
+    }
+    runs.write_json(
+        os.path.join(run_dir, "best_params.json"),
+        {
+            **_amplitudes_json(np.array(best["params"])),
+            "round": best["round"],
+            "distance_m": best["distance_m"],
+            "fell": best["fell"],
+        },
+    )
+    runs.write_json(
+        os.path.join(run_dir, "mean_params.json"),
+        {
+            **_amplitudes_json(optimizer.mean),
+            "distance_m": summary["final_mean_distance_m"],
+            "fell": summary["final_mean_fell"],
+        },
+    )
+    runs.write_json(os.path.join(run_dir, "summary.json"), summary)
+    return summary

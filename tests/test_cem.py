@@ -1,0 +1,208 @@
+"""CEM (thesis Alg. 6.1): the update, the toy example, run files, determinism, resume."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from baselines import cem, optimize, runs
+
+
+def test_first_sample_is_the_mean():
+    opt = cem.CEM(np.arange(11.0), population=5, elite=2, noise=0.8, seed=0)
+    samples = opt.ask()
+    assert samples.shape == (5, 11)
+    np.testing.assert_array_equal(samples[0], np.arange(11.0))
+
+
+def test_update_known_answer():
+    opt = cem.CEM(np.zeros(2), population=4, elite=2, noise=0.5, seed=0)
+    samples = np.array([[0.0, 0.0], [1.0, 3.0], [3.0, 1.0], [9.0, 9.0]])
+    opt.tell(samples, np.array([5.0, 1.0, 2.0, 0.5]))  # elite: rows 3 and 1
+    np.testing.assert_allclose(opt.mean, [5.0, 6.0])
+    # Σ about the NEW mean, weights 1/elite, plus noise on the diagonal.
+    np.testing.assert_allclose(opt.cov, [[16.0 + 0.5, 12.0], [12.0, 9.0 + 0.5]])
+
+
+def test_elite_one_without_noise_collapses_the_covariance():
+    """Thesis 6.1: with elite = 1 and no noise the new covariance is 0."""
+    opt = cem.CEM(np.zeros(3), population=6, elite=1, noise=0.0, seed=1)
+    samples = opt.ask()
+    opt.tell(samples, np.arange(6.0)[::-1])
+    np.testing.assert_array_equal(opt.mean, samples[-1])
+    np.testing.assert_array_equal(opt.cov, np.zeros((3, 3)))
+
+
+def _toy(noise, seed, rounds=60):
+    """Thesis Sec. 6.1: a point in the plane, cost = distance to the origin."""
+    opt = cem.CEM(
+        np.array([8.0, 8.0]),
+        population=10,
+        elite=5,
+        noise=noise,
+        seed=seed,
+        covariance=9.0 * np.eye(2),
+    )
+    for _ in range(rounds):
+        samples = opt.ask()
+        opt.tell(samples, np.linalg.norm(samples, axis=1))
+    return opt
+
+
+def test_toy_example_claims():
+    assert np.linalg.norm([8.0, 8.0]) == pytest.approx(11.31, abs=0.01)  # CEMT-1
+    plain = [_toy(0.0, s) for s in range(5)]
+    noisy = [_toy(0.8, s) for s in range(5)]
+    # CEMT-2: without noise Σ collapses and the mean stops short of the origin.
+    assert all(o.sigma < 1e-3 for o in plain)
+    assert np.mean([np.linalg.norm(o.mean) for o in plain]) > 0.3
+    # CEMT-3: with noise 0.8 the mean gets close to the origin (the study: error ≈ 0.1).
+    assert np.mean([np.linalg.norm(o.mean) for o in noisy]) < 0.5
+
+
+def test_invalid_configuration():
+    for kwargs in (
+        {"population": 1, "elite": 1},
+        {"population": 4, "elite": 5},
+        {"population": 4, "elite": 0},
+        {"population": 4, "elite": 2, "noise": -1},
+    ):
+        with pytest.raises(ValueError):
+            cem.CEM(np.zeros(11), **{"noise": 0.8, "seed": 0, **kwargs})
+
+
+def _settings(tmp_path, **kw):
+    base = {
+        "task": "darwin_walk",
+        "population": 4,
+        "elite": 2,
+        "noise": 0.8,
+        "rounds": 3,
+        "seed": 0,
+        "trial_steps": 120,
+        "eval_seeds": 1,
+        "fall_penalty": 1.0,
+        "lateral_penalty": 0.0,
+        "output_dir": str(tmp_path),
+        "run_name": "r",
+    }
+    return {**base, **kw}
+
+
+def _without_wall(summary):
+    return {k: v for k, v in summary.items() if k != "wall_s"}
+
+
+def test_run_files_and_thread_independence(tmp_path):
+    d1, s1 = cem.run_cem(_settings(tmp_path / "a"), threads=1, log=lambda line: None)
+    d2, s2 = cem.run_cem(_settings(tmp_path / "b"), threads=2, log=lambda line: None)
+    assert _without_wall(s1) == _without_wall(s2)
+    for name in (
+        "config.json",
+        "progress.csv",
+        "checkpoint.json",
+        "best_params.json",
+        "mean_params.json",
+        "summary.json",
+    ):
+        assert (tmp_path / "a" / "cem" / "darwin_walk" / "r" / name).exists()
+    for key in (
+        "best_distance_m",
+        "best_round",
+        "final_mean_distance_m",
+        "falls_total",
+        "rounds",
+        "evaluations",
+        "sim_steps",
+        "wall_s",
+    ):
+        assert key in s1
+    assert s1["rounds"] == 3 and s1["evaluations"] == 3 * 4 + 1
+    lines = (tmp_path / "a/cem/darwin_walk/r/progress.csv").read_text().splitlines()
+    assert len(lines) == 4 and lines[0].startswith("round,")
+    best = json.loads((tmp_path / "a/cem/darwin_walk/r/best_params.json").read_text())
+    assert len(best["amplitudes"]) == 11
+
+
+class Killed(Exception):
+    pass
+
+
+def test_kill_and_resume_gives_the_same_summary(tmp_path):
+    _, full = cem.run_cem(_settings(tmp_path / "full", rounds=4), log=lambda line: None)
+
+    def die_after_two(line):
+        if line.startswith("round   2"):
+            raise Killed
+
+    settings = _settings(tmp_path / "killed", rounds=4)
+    with pytest.raises(Killed):
+        cem.run_cem(settings, log=die_after_two)
+    run_dir = tmp_path / "killed/cem/darwin_walk/r"
+    assert not (run_dir / "summary.json").exists()
+    assert json.loads((run_dir / "checkpoint.json").read_text())["totals"]["round"] == 2
+    _, resumed = cem.run_cem(settings, resume=True, log=lambda line: None)
+    assert _without_wall(resumed) == _without_wall(full)
+    full_rows = (tmp_path / "full/cem/darwin_walk/r/progress.csv").read_text().splitlines()
+    rows = (run_dir / "progress.csv").read_text().splitlines()
+    assert [r.split(",")[:11] for r in rows] == [r.split(",")[:11] for r in full_rows]
+
+
+def test_corrupt_and_foreign_checkpoints_are_refused(tmp_path):
+    settings = _settings(tmp_path, rounds=5)
+
+    def die(line):
+        raise Killed
+
+    with pytest.raises(Killed):
+        cem.run_cem(settings, log=die)
+    checkpoint = tmp_path / "cem/darwin_walk/r/checkpoint.json"
+    with pytest.raises(optimize.CheckpointError, match="another configuration"):
+        cem.run_cem({**settings, "population": 6}, resume=True, log=die)
+    checkpoint.write_text("{not json")
+    with pytest.raises(optimize.CheckpointError, match="cannot read"):
+        cem.run_cem(settings, resume=True, log=die)
+
+
+def test_existing_run_is_not_overwritten(tmp_path):
+    cem.run_cem(_settings(tmp_path, rounds=1), log=lambda line: None)
+    with pytest.raises(runs.RunDirectoryExists):
+        cem.run_cem(_settings(tmp_path, rounds=1), log=lambda line: None)
+
+
+def _cli(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "baselines.cem", *args], capture_output=True, text=True, timeout=300
+    )
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--elite=11", "--population=10"], "--elite"),
+        (["--population=1"], "--population"),
+        (["--noise=-0.1"], "--noise"),
+        (["--task=darwin_run"], "unknown --task"),
+        (["--rounds=0"], "--rounds"),
+        (["--resume", "--overwrite"], "exclude"),
+        (["--grid=table6_3", "--settings=K7"], "unknown --settings"),
+        (["--grid=table9"], "grid"),
+    ],
+)
+def test_cli_bad_flags(tmp_path, args, words):
+    out = _cli(*args, f"--output_dir={tmp_path}")
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and words in lines[0]
+    assert not any(tmp_path.iterdir())
+
+
+def test_cli_run_and_refusal_to_overwrite(tmp_path):
+    args = ("--population=3", "--rounds=1", "--trial_steps=50", f"--output_dir={tmp_path}")
+    out = _cli(*args)
+    assert out.returncode == 0, out.stderr
+    assert "round   1" in out.stdout
+    again = _cli(*args)
+    assert again.returncode == 2 and "--overwrite" in again.stderr
