@@ -44,13 +44,15 @@ setup(
         "pandas>=2.0,<4",
     ],
     extras_require={
-        # The tests also render a gait video (Pillow for GIF/PNG, imageio + ffmpeg for MP4).
+        # The tests also render a gait video (Pillow for GIF/PNG, imageio + ffmpeg for MP4)
+        # and run CMA-ES.
         "test": [
             "pytest>=7,<10",
             "ruff>=0.5",
             "pillow>=10,<14",
             "imageio>=2.30,<3",
             "imageio-ffmpeg>=0.5,<1",
+            "cma>=3.3,<5",
         ],
         "plots": [
             "matplotlib>=3.7,<4",
@@ -59,6 +61,8 @@ setup(
             "imageio-ffmpeg>=0.5,<1",
         ],
         "gym": ["gymnasium>=1.0,<2", "shimmy[dm-control]>=2.0,<3"],
+        # Optimizers beyond the study (CMA-ES).
+        "optim": ["cma>=3.3,<5"],
     },
     classifiers=[
         "Programming Language :: Python :: 3",

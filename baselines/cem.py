@@ -26,40 +26,14 @@ continues bit-identically), best_params.json, mean_params.json, summary.json.
 
 from __future__ import annotations
 
-import os
-import time
-
 import numpy as np
 from absl import flags
 
-from baselines import cli, runs
-from baselines.batch_eval import BatchEvaluator
-from baselines.optimize import CheckpointError, run_rounds
+from baselines import cli, optimize
 from cpg_suite import cpg
 
-TASKS = ("darwin_walk",)
-
-_TASK = flags.DEFINE_string("task", "darwin_walk", f"Task: {', '.join(TASKS)}.")
-_POPULATION = flags.DEFINE_integer("population", 50, "Samples per round K (the study: 10-50).")
 _ELITE = flags.DEFINE_integer("elite", 2, "Elite samples kept per round.")
 _NOISE = flags.DEFINE_float("noise", 0.8, "Variance added to the covariance diagonal, deg².")
-_ROUNDS = flags.DEFINE_integer("rounds", 50, "Rounds.")
-_SEED = flags.DEFINE_integer("seed", 0, "Sampling seed.")
-_TRIAL_STEPS = flags.DEFINE_integer(
-    "trial_steps", 1000, "Control steps per trial (the study: 1000)."
-)
-_EVAL_SEEDS = flags.DEFINE_integer(
-    "eval_seeds", 1, "Initial states each candidate is scored on (seeds 0..N-1), every round."
-)
-_FALL_PENALTY = flags.DEFINE_float("fall_penalty", 1.0, "Cost of a fall (m of distance).")
-_LATERAL_PENALTY = flags.DEFINE_float(
-    "lateral_penalty", 0.0, "Cost per metre of lateral displacement (the study's variant)."
-)
-_THREADS = flags.DEFINE_integer("threads", 2, "Evaluator threads (results do not depend on it).")
-_OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs", "Root of the output tree.")
-_RUN_NAME = flags.DEFINE_string("run_name", None, "Run directory name (default from settings).")
-_RESUME = flags.DEFINE_bool("resume", False, "Continue runs from their checkpoints.")
-_OVERWRITE = flags.DEFINE_bool("overwrite", False, "Replace existing run directories.")
 _GRID = flags.DEFINE_enum("grid", None, ["table6_3"], "Run a whole table of settings.")
 _SEEDS = flags.DEFINE_integer("seeds", 3, "--grid: seeds per setting (0..N-1).")
 _SETTINGS = flags.DEFINE_string("settings", None, "--grid: only these settings (comma list).")
@@ -155,43 +129,14 @@ def default_run_name(settings: dict) -> str:
 def run_cem(
     settings: dict, threads: int = 2, resume: bool = False, overwrite: bool = False, log=print
 ) -> tuple[str, dict]:
-    """Runs one CEM configuration and writes its run directory.
+    """Runs one CEM configuration and writes `<output_dir>/cem/<task>/<run_name>/`.
 
     Returns:
       `(run_dir, summary)`.
 
     Raises:
-      runs.RunDirectoryExists, CheckpointError.
+      runs.RunDirectoryExists, optimize.CheckpointError.
     """
-    run_dir = runs.run_directory(
-        settings["output_dir"],
-        "cem",
-        settings["task"],
-        settings["run_name"],
-        overwrite=overwrite,
-        resume=resume,
-    )
-    summary_path = os.path.join(run_dir, "summary.json")
-    if resume and os.path.exists(summary_path):
-        log(f"{run_dir}: already finished")
-        return run_dir, runs.read_json(summary_path)
-    identity = {
-        k: settings[k]
-        for k in (
-            "task",
-            "population",
-            "elite",
-            "noise",
-            "rounds",
-            "seed",
-            "trial_steps",
-            "eval_seeds",
-            "fall_penalty",
-            "lateral_penalty",
-        )
-    }
-    if not (resume and os.path.exists(os.path.join(run_dir, "checkpoint.json"))):
-        runs.write_config(run_dir, {**settings, "threads": threads})
     optimizer = CEM(
         cpg.amplitudes_from("hand_tuned"),
         settings["population"],
@@ -199,57 +144,20 @@ def run_cem(
         settings["noise"],
         settings["seed"],
     )
-    with BatchEvaluator(settings["task"], settings["trial_steps"], threads) as evaluator:
-        summary = run_rounds(
-            optimizer,
-            evaluator,
-            run_dir,
-            rounds=settings["rounds"],
-            eval_seeds=list(range(settings["eval_seeds"])),
-            fall_penalty=settings["fall_penalty"],
-            lateral_penalty=settings["lateral_penalty"],
-            identity=identity,
-            resume=resume,
-            log=log,
-        )
-    return run_dir, summary
+    return optimize.run_optimizer(
+        "cem", optimizer, settings, ("elite", "noise"), threads, resume, overwrite, log
+    )
 
 
 def _validate() -> dict:
-    cli.check(_TASK.value in TASKS, f"unknown --task {_TASK.value!r}; valid: {', '.join(TASKS)}")
-    cli.check(_POPULATION.value >= 2, f"--population must be ≥ 2, got {_POPULATION.value}")
+    settings = optimize.common_settings()
     cli.check(
-        1 <= _ELITE.value <= _POPULATION.value,
-        f"--elite must lie in [1, --population={_POPULATION.value}], got {_ELITE.value}",
+        1 <= _ELITE.value <= settings["population"],
+        f"--elite must lie in [1, --population={settings['population']}], got {_ELITE.value}",
     )
     cli.check(_NOISE.value >= 0, f"--noise must be ≥ 0, got {_NOISE.value}")
-    cli.check(_ROUNDS.value >= 1, f"--rounds must be ≥ 1, got {_ROUNDS.value}")
-    cli.check(_SEED.value >= 0, f"--seed must be ≥ 0, got {_SEED.value}")
-    cli.check(_TRIAL_STEPS.value >= 1, f"--trial_steps must be ≥ 1, got {_TRIAL_STEPS.value}")
-    cli.check(_EVAL_SEEDS.value >= 1, f"--eval_seeds must be ≥ 1, got {_EVAL_SEEDS.value}")
-    cli.check(_FALL_PENALTY.value >= 0, f"--fall_penalty must be ≥ 0, got {_FALL_PENALTY.value}")
-    cli.check(
-        _LATERAL_PENALTY.value >= 0, f"--lateral_penalty must be ≥ 0, got {_LATERAL_PENALTY.value}"
-    )
-    cli.check(_THREADS.value >= 1, f"--threads must be ≥ 1, got {_THREADS.value}")
-    cli.check(
-        not (_RESUME.value and _OVERWRITE.value), "--resume and --overwrite exclude each other"
-    )
     cli.check(_SEEDS.value >= 1, f"--seeds must be ≥ 1, got {_SEEDS.value}")
-    return {
-        "trial_steps": _TRIAL_STEPS.value,
-        "task": _TASK.value,
-        "population": _POPULATION.value,
-        "elite": _ELITE.value,
-        "noise": _NOISE.value,
-        "rounds": _ROUNDS.value,
-        "seed": _SEED.value,
-        "eval_seeds": _EVAL_SEEDS.value,
-        "fall_penalty": _FALL_PENALTY.value,
-        "lateral_penalty": _LATERAL_PENALTY.value,
-        "output_dir": _OUTPUT_DIR.value,
-        "run_name": _RUN_NAME.value,
-    }
+    return {**settings, "elite": _ELITE.value, "noise": _NOISE.value}
 
 
 def main(argv):
@@ -268,30 +176,7 @@ def main(argv):
             for seed in range(_SEEDS.value):
                 setting = {**base, "lateral_penalty": 0.0, **TABLE6_3[name], "seed": seed}
                 jobs.append({**setting, "run_name": f"{name}_seed{seed}"})
-    start = time.perf_counter()
-    for i, settings in enumerate(jobs, 1):
-        prefix = f"[{i}/{len(jobs)} {settings['run_name']}] " if len(jobs) > 1 else ""
-        try:
-            run_dir, summary = run_cem(
-                settings,
-                _THREADS.value,
-                _RESUME.value,
-                _OVERWRITE.value,
-                log=lambda line, p=prefix: print(p + line, flush=True),
-            )
-        except runs.RunDirectoryExists as e:
-            raise cli.UsageError(f"{e} (or --resume to continue it)") from None
-        except CheckpointError as e:
-            raise cli.UsageError(str(e)) from None
-        print(
-            f"{prefix}{run_dir}: best {summary['best_distance_m']:+.3f} m in round "
-            f"{summary['best_round']}, final mean {summary['final_mean_distance_m']:+.3f} m"
-            f"{' (fell)' if summary['final_mean_fell'] else ''}, falls "
-            f"{summary['falls_total']}/{summary['evaluations']}, {summary['wall_s']:.0f} s",
-            flush=True,
-        )
-    if len(jobs) > 1:
-        print(f"{len(jobs)} runs in {time.perf_counter() - start:.0f} s")
+    optimize.run_jobs(jobs, run_cem)
 
 
 if __name__ == "__main__":

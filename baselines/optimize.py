@@ -20,10 +20,46 @@ import time
 from collections.abc import Callable
 
 import numpy as np
+from absl import flags
 
-from baselines import runs
+from baselines import cli, runs
 from baselines.batch_eval import BatchEvaluator, BatchResult
 from cpg_suite import cpg
+
+TASKS = ("darwin_walk",)
+
+# Flags shared by every gait optimizer (`baselines.cem`, `baselines.cmaes`).
+_TASK = flags.DEFINE_string("task", "darwin_walk", f"Task: {', '.join(TASKS)}.")
+_POPULATION = flags.DEFINE_integer("population", 50, "Samples per round K (the study: 10-50).")
+_ROUNDS = flags.DEFINE_integer("rounds", 50, "Rounds.")
+_SEED = flags.DEFINE_integer("seed", 0, "Sampling seed.")
+_TRIAL_STEPS = flags.DEFINE_integer(
+    "trial_steps", 1000, "Control steps per trial (the study: 1000)."
+)
+_EVAL_SEEDS = flags.DEFINE_integer(
+    "eval_seeds", 1, "Initial states each candidate is scored on (seeds 0..N-1), every round."
+)
+_FALL_PENALTY = flags.DEFINE_float("fall_penalty", 1.0, "Cost of a fall (m of distance).")
+_LATERAL_PENALTY = flags.DEFINE_float(
+    "lateral_penalty", 0.0, "Cost per metre of lateral displacement (the study's variant)."
+)
+_THREADS = flags.DEFINE_integer("threads", 2, "Evaluator threads (results do not depend on it).")
+_OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs", "Root of the output tree.")
+_RUN_NAME = flags.DEFINE_string("run_name", None, "Run directory name (default from settings).")
+_RESUME = flags.DEFINE_bool("resume", False, "Continue runs from their checkpoints.")
+_OVERWRITE = flags.DEFINE_bool("overwrite", False, "Replace existing run directories.")
+
+# Settings that must match for a checkpoint to be resumed (plus the method's own).
+_IDENTITY = (
+    "task",
+    "population",
+    "rounds",
+    "seed",
+    "trial_steps",
+    "eval_seeds",
+    "fall_penalty",
+    "lateral_penalty",
+)
 
 PROGRESS_FIELDS = [
     "round",
@@ -222,3 +258,125 @@ def run_rounds(
     )
     runs.write_json(os.path.join(run_dir, "summary.json"), summary)
     return summary
+
+
+def common_settings() -> dict:
+    """Validates the shared flags; returns them as settings.
+
+    Raises:
+      cli.UsageError: With a one-line reason.
+    """
+    cli.check(_TASK.value in TASKS, f"unknown --task {_TASK.value!r}; valid: {', '.join(TASKS)}")
+    cli.check(_POPULATION.value >= 2, f"--population must be ≥ 2, got {_POPULATION.value}")
+    cli.check(_ROUNDS.value >= 1, f"--rounds must be ≥ 1, got {_ROUNDS.value}")
+    cli.check(_SEED.value >= 0, f"--seed must be ≥ 0, got {_SEED.value}")
+    cli.check(_TRIAL_STEPS.value >= 1, f"--trial_steps must be ≥ 1, got {_TRIAL_STEPS.value}")
+    cli.check(_EVAL_SEEDS.value >= 1, f"--eval_seeds must be ≥ 1, got {_EVAL_SEEDS.value}")
+    cli.check(_FALL_PENALTY.value >= 0, f"--fall_penalty must be ≥ 0, got {_FALL_PENALTY.value}")
+    cli.check(
+        _LATERAL_PENALTY.value >= 0, f"--lateral_penalty must be ≥ 0, got {_LATERAL_PENALTY.value}"
+    )
+    cli.check(_THREADS.value >= 1, f"--threads must be ≥ 1, got {_THREADS.value}")
+    cli.check(
+        not (_RESUME.value and _OVERWRITE.value), "--resume and --overwrite exclude each other"
+    )
+    return {
+        "task": _TASK.value,
+        "population": _POPULATION.value,
+        "rounds": _ROUNDS.value,
+        "seed": _SEED.value,
+        "trial_steps": _TRIAL_STEPS.value,
+        "eval_seeds": _EVAL_SEEDS.value,
+        "fall_penalty": _FALL_PENALTY.value,
+        "lateral_penalty": _LATERAL_PENALTY.value,
+        "output_dir": _OUTPUT_DIR.value,
+        "run_name": _RUN_NAME.value,
+    }
+
+
+def run_optimizer(
+    method: str,
+    optimizer,
+    settings: dict,
+    own_keys: tuple,
+    threads: int,
+    resume: bool,
+    overwrite: bool,
+    log: Callable[[str], None] = print,
+):
+    """Creates (or reopens) the run directory and runs `optimizer` for its rounds.
+
+    Args:
+      method: Method name (the run directory's second level), e.g. "cem".
+      optimizer: A fresh optimizer (replaced by the checkpoint's state on resume).
+      settings: The run's settings (`common_settings()` plus the method's own).
+      own_keys: The method's settings that must also match to resume.
+      threads: Evaluator threads.
+      resume: Continue from the checkpoint; return a finished run's summary as it is.
+      overwrite: Replace an existing run directory.
+      log: Receives progress lines.
+
+    Returns:
+      `(run_dir, summary)`.
+
+    Raises:
+      runs.RunDirectoryExists, CheckpointError.
+    """
+    run_dir = runs.run_directory(
+        settings["output_dir"],
+        method,
+        settings["task"],
+        settings["run_name"],
+        overwrite=overwrite,
+        resume=resume,
+    )
+    summary_path = os.path.join(run_dir, "summary.json")
+    if resume and os.path.exists(summary_path):
+        log(f"{run_dir}: already finished")
+        return run_dir, runs.read_json(summary_path)
+    identity = {k: settings[k] for k in _IDENTITY + tuple(own_keys)}
+    if not (resume and os.path.exists(os.path.join(run_dir, "checkpoint.json"))):
+        runs.write_config(run_dir, {**settings, "method": method, "threads": threads})
+    with BatchEvaluator(settings["task"], settings["trial_steps"], threads) as evaluator:
+        summary = run_rounds(
+            optimizer,
+            evaluator,
+            run_dir,
+            rounds=settings["rounds"],
+            eval_seeds=list(range(settings["eval_seeds"])),
+            fall_penalty=settings["fall_penalty"],
+            lateral_penalty=settings["lateral_penalty"],
+            identity=identity,
+            resume=resume,
+            log=log,
+        )
+    return run_dir, summary
+
+
+def run_jobs(jobs: list[dict], run: Callable) -> None:
+    """Runs each job's settings with `run(settings, threads, resume, overwrite, log)` and
+    prints a summary line per run; reports a refused run directory as a usage error."""
+    start = time.perf_counter()
+    for i, settings in enumerate(jobs, 1):
+        prefix = f"[{i}/{len(jobs)} {settings['run_name']}] " if len(jobs) > 1 else ""
+        try:
+            run_dir, summary = run(
+                settings,
+                _THREADS.value,
+                _RESUME.value,
+                _OVERWRITE.value,
+                log=lambda line, p=prefix: print(p + line, flush=True),
+            )
+        except runs.RunDirectoryExists as e:
+            raise cli.UsageError(f"{e} (or --resume to continue it)") from None
+        except CheckpointError as e:
+            raise cli.UsageError(str(e)) from None
+        print(
+            f"{prefix}{run_dir}: best {summary['best_distance_m']:+.3f} m in round "
+            f"{summary['best_round']}, final mean {summary['final_mean_distance_m']:+.3f} m"
+            f"{' (fell)' if summary['final_mean_fell'] else ''}, falls "
+            f"{summary['falls_total']}/{summary['evaluations']}, {summary['wall_s']:.0f} s",
+            flush=True,
+        )
+    if len(jobs) > 1:
+        print(f"{len(jobs)} runs in {time.perf_counter() - start:.0f} s")

@@ -206,3 +206,36 @@ def test_cli_run_and_refusal_to_overwrite(tmp_path):
     assert "round   1" in out.stdout
     again = _cli(*args)
     assert again.returncode == 2 and "--overwrite" in again.stderr
+
+
+def test_cmaes_runs_resumes_and_is_thread_independent(tmp_path):
+    from baselines import cmaes
+
+    settings = {**_settings(tmp_path / "a", rounds=3), "sigma0": 1.0}
+    _, full = cmaes.run_cmaes(settings, threads=1, log=lambda line: None)
+    _, two = cmaes.run_cmaes(
+        {**settings, "output_dir": str(tmp_path / "b")}, threads=2, log=lambda line: None
+    )
+    assert _without_wall(full) == _without_wall(two)
+    assert full["evaluations"] == 3 * 4 + 1
+
+    def die_after_one(line):
+        if line.startswith("round   1"):
+            raise Killed
+
+    killed = {**settings, "output_dir": str(tmp_path / "c")}
+    with pytest.raises(Killed):
+        cmaes.run_cmaes(killed, log=die_after_one)
+    np.random.seed(12345)  # Something else touches NumPy's global generator in between.
+    _, resumed = cmaes.run_cmaes(killed, resume=True, log=lambda line: None)
+    assert _without_wall(resumed) == _without_wall(full)
+
+
+def test_cmaes_cli_bad_flags(tmp_path):
+    out = subprocess.run(
+        [sys.executable, "-m", "baselines.cmaes", "--sigma0=0", f"--output_dir={tmp_path}"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 2 and "--sigma0" in out.stderr
