@@ -24,7 +24,7 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
 from dm_control.rl import control
 
 # Each domain module registers its tasks in its SUITE.
-from cpg_suite import darwin, pole  # noqa: F401
+from cpg_suite import crawler, darwin, pole  # noqa: F401
 
 __version__ = "0.1.0"
 

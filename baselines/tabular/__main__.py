@@ -38,7 +38,8 @@ _DOUBLE_ALPHA = flags.DEFINE_bool(
 _EPSILON = flags.DEFINE_string(
     "epsilon",
     _D["epsilon"],
-    "ε: a constant like 0.1, or step:value points like 0:0.9,100:0.9,300:0.",
+    "ε: a constant like 0.1, or step:value points like 0:0.9,100:0.9,300:0 (default: the "
+    "study's real-time schedule on the crawler, 0 elsewhere).",
 )
 _STEPS = flags.DEFINE_integer("steps", _D["steps"], "Online learning steps (iterations).")
 _SWEEPS = flags.DEFINE_integer(
@@ -66,6 +67,19 @@ _SEED = flags.DEFINE_integer("seed", _D["seed"], "Random seed (initial states, e
 _OUTPUT_DIR = flags.DEFINE_string("output_dir", _D["output_dir"], "Root of the output tree.")
 _RUN_NAME = flags.DEFINE_string("run_name", _D["run_name"], "Run directory name (default seed<N>).")
 _OVERWRITE = flags.DEFINE_bool("overwrite", _D["overwrite"], "Replace an existing run directory.")
+_REALTIME = flags.DEFINE_bool(
+    "realtime", _D["realtime"], "Crawler: plan (value/policy iteration) on rewards measured online."
+)
+_MOVES = flags.DEFINE_integer("moves", None, "Crawler: learning moves (same as --steps).")
+_EXPLORE_MOVES = flags.DEFINE_integer(
+    "explore_moves", _D["explore_moves"], "Crawler: first N moves random (ε = 1), approach 1b."
+)
+_STOCHASTIC = flags.DEFINE_float(
+    "stochastic", _D["stochastic"], "Crawler: probability that a move does not happen."
+)
+_EVAL_MOVES = flags.DEFINE_integer(
+    "eval_moves", _D["eval_moves"], "Crawler: moves of the frozen greedy policy after learning."
+)
 
 
 def _validate() -> dict:
@@ -85,10 +99,12 @@ def _validate() -> dict:
             cpg_suite.split_task_id(_TASK.value)
         except ValueError as e:
             raise cli.UsageError(str(e)) from None
+        crawler = _TASK.value.startswith("crawler")
         cli.check(
-            _ALGO.value not in PLANNERS,
-            f"{_ALGO.value} needs a complete model (--model=tokic); "
-            f"the task {_TASK.value} has none (use q_learning, sarsa or sarsa_lambda)",
+            _ALGO.value not in PLANNERS
+            or (crawler and (_REALTIME.value or _EXPLORE_MOVES.value > 0)),
+            f"{_ALGO.value} needs a complete model (--model=tokic), or on the crawler a model "
+            "measured online (--realtime or --explore_moves=N)",
         )
         cli.check(
             _ALGO.value not in ("td0", "td_lambda") or not _TASK.value.startswith("pole"),
@@ -100,7 +116,10 @@ def _validate() -> dict:
             f"{_TASK.value} has continuous actions; tabular methods need a discrete "
             "task such as pole_balance",
         )
-        cli.check(_TASK.value.startswith("pole"), f"no discretizer is defined for {_TASK.value}")
+        cli.check(
+            _TASK.value.startswith(("pole", "crawler")),
+            f"no discretizer is defined for {_TASK.value}",
+        )
     for name, flag in (("gamma", _GAMMA), ("alpha", _ALPHA), ("lam", _LAMBDA)):
         cli.check(0.0 <= flag.value <= 1.0, f"--{name} must lie in [0, 1], got {flag.value}")
     cli.check(0.0 <= _SLIP.value < 1.0, f"--slip must lie in [0, 1), got {_SLIP.value}")
@@ -123,13 +142,27 @@ def _validate() -> dict:
         _FORCE.value is None or (np.isfinite(_FORCE.value) and _FORCE.value > 0),
         f"--force must be a positive number of newtons, got {_FORCE.value}",
     )
+    cli.check(_MOVES.value is None or _MOVES.value >= 1, f"--moves must be ≥ 1, got {_MOVES.value}")
+    cli.check(_EXPLORE_MOVES.value >= 0, f"--explore_moves must be ≥ 0, got {_EXPLORE_MOVES.value}")
+    cli.check(
+        0.0 <= _STOCHASTIC.value < 1.0, f"--stochastic must lie in [0, 1), got {_STOCHASTIC.value}"
+    )
+    cli.check(_EVAL_MOVES.value >= 0, f"--eval_moves must be ≥ 0, got {_EVAL_MOVES.value}")
+    cli.check(
+        not (_ALGO.value == "policy_iteration" and _GAMMA.value >= 1.0 and _MODEL.value is None),
+        "policy_iteration in real time needs --gamma < 1",
+    )
     try:
-        exploration.EpsilonSchedule.parse(_EPSILON.value)
+        if _EPSILON.value is not None:
+            exploration.EpsilonSchedule.parse(_EPSILON.value)
         bins = discretize.parse_bins(_BINS.value)
     except ValueError as e:
         raise cli.UsageError(str(e)) from None
     cli.check(len(bins) in (1, 2), f"--bins takes 1 or 2 counts, got {_BINS.value!r}")
-    return {name: flags.FLAGS[name].value for name in runner.DEFAULTS}
+    settings = {name: flags.FLAGS[name].value for name in runner.DEFAULTS}
+    if _MOVES.value is not None:
+        settings["steps"] = _MOVES.value
+    return settings
 
 
 def main(argv):

@@ -262,10 +262,75 @@ class TDLambda(_TracedLearner, _VLearner):
         return delta
 
 
+class RealTimeValueIteration(_VLearner):
+    """Thesis Alg. 4.1 in real time: the robot acts, and after every move R̂(s, a) ← r and
+    one in-place sweep over all states, V(s) = max_a [R̂(s, a) + γ V(succ(s, a))].
+
+    The reward table starts at 0 and is filled in as moves are made (the latest measurement
+    overwrites, thesis Sec. 4.1.4). With `slip` = p > 0 (the stochastic variant, p known)
+    the backup is the expectation (1 − p)[R̂ + γ V(succ)] + p γ V(s), and a move that left
+    the state unchanged is taken for a slip and does not overwrite R̂.
+    """
+
+    def __init__(self, *args, slip: float = 0.0, **kwargs):
+        super().__init__(*args, **kwargs)
+        if not 0.0 <= slip < 1.0:
+            raise ValueError(f"slip must lie in [0, 1), got {slip}")
+        self.slip = float(slip)
+
+    def _backup(self, s: int) -> np.ndarray:
+        moved = self.r_hat[s] + self.gamma * self.v[self._succ[s]]
+        return (1.0 - self.slip) * moved + self.slip * self.gamma * self.v[s]
+
+    def action_values(self, s):
+        return np.where(self.allowed[s], self._backup(s), -np.inf)
+
+    def _observe(self, s, a, r, s2):
+        if not (self.slip > 0.0 and s2 == s and self._succ[s, a] != s):
+            self._record(s, a, r)
+
+    def update(self, s, a, r, s2, discount, a2=None):
+        self._observe(s, a, r, s2)
+        change = 0.0
+        for state in range(self.n_states):  # One in-place (Gauss-Seidel) sweep.
+            new = self._backup(state)[self.allowed[state]].max()
+            change = max(change, abs(new - self.v[state]))
+            self.v[state] = new
+        return change
+
+
+class RealTimePolicyIteration(RealTimeValueIteration):
+    """Policy iteration in real time: after every move, R̂(s, a) ← r, the greedy policy of
+    the current V is evaluated exactly on R̂ (a linear solve), and acting is greedy on the
+    result (one evaluation + improvement per move)."""
+
+    def update(self, s, a, r, s2, discount, a2=None):
+        self._observe(s, a, r, s2)
+        n = self.n_states
+        policy = np.array(
+            [argmax_ties(self.action_values(x), None, self.tie_order) for x in range(n)]
+        )
+        idx = np.arange(n)
+        succ = self._succ[idx, policy]
+        transition = np.zeros((n, n))
+        transition[idx, succ] += 1.0 - self.slip
+        transition[idx, idx] += self.slip
+        reward = (1.0 - self.slip) * self.r_hat[idx, policy]
+        old = self.v.copy()
+        self.v = np.linalg.solve(np.eye(n) - self.gamma * transition, reward)
+        return float(np.abs(self.v - old).max())
+
+
 LEARNERS = {
     "q_learning": QLearning,
     "sarsa": Sarsa,
     "sarsa_lambda": SarsaLambda,
     "td0": TD0,
     "td_lambda": TDLambda,
+}
+
+# Model-based planners learning their reward model online (thesis Alg. 4.1, "real time").
+REALTIME_PLANNERS = {
+    "value_iteration": RealTimeValueIteration,
+    "policy_iteration": RealTimePolicyIteration,
 }

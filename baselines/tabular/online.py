@@ -55,6 +55,7 @@ def run_online(
     epsilon: EpsilonSchedule,
     record: tuple[str, ...] = (),
     on_episode: Callable[[Episode], None] | None = None,
+    on_step: Callable[[], None] | None = None,
 ) -> OnlineResult:
     """Runs `steps` learning steps of `learner` on `env`.
 
@@ -66,6 +67,7 @@ def run_online(
       epsilon: ε as a function of the step count.
       record: Scalar observation names to keep for every step (e.g. `("angle",)`).
       on_episode: Called with each finished episode (for progress files).
+      on_step: Called after each learning update (e.g. to record the value table).
 
     Returns:
       An `OnlineResult`.
@@ -95,6 +97,8 @@ def run_online(
         else:  # Q-learning, TD: update, then choose with the updated table.
             learner.update(s, a, r, s2, float(ts.discount))
             a2 = learner.act(s2, epsilon(t + 1))
+        if on_step is not None:
+            on_step()
         if ts.last():
             fell = ts.discount == 0.0
             if fell:

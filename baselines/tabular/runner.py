@@ -30,7 +30,7 @@ DEFAULTS = {
     "lam": 0.9,
     "trace": "accumulating",
     "double_alpha": False,
-    "epsilon": "0",
+    "epsilon": None,
     "steps": 20000,
     "sweeps": None,
     "iterations": None,
@@ -45,7 +45,21 @@ DEFAULTS = {
     "output_dir": "runs",
     "run_name": None,
     "overwrite": False,
+    "realtime": False,
+    "explore_moves": 0,
+    "stochastic": 0.0,
+    "eval_moves": 100,
 }
+
+# The study's real-time ε schedule (thesis Sec. 4.1.7): 0.9 for 100 moves, 0 at move 300.
+CRAWLER_EPSILON = "0:0.9,100:0.9,300:0"
+
+
+def default_epsilon(settings: dict) -> str:
+    """ε when none is given: the study's schedule on the crawler, 0 elsewhere."""
+    if settings.get("epsilon") is not None:
+        return settings["epsilon"]
+    return CRAWLER_EPSILON if (settings.get("task") or "").startswith("crawler") else "0"
 
 
 def make_learner(
@@ -60,6 +74,16 @@ def make_learner(
     """Builds the learner `settings["algo"]` with the settings' γ, α, λ, trace, double α."""
     algo = settings["algo"]
     kwargs = dict(rng=rng, allowed=allowed, tie_order=tie_order)
+    if algo in learners.REALTIME_PLANNERS:
+        return learners.REALTIME_PLANNERS[algo](
+            n_states,
+            n_actions,
+            settings["gamma"],
+            settings["alpha"],
+            successor=successor,
+            slip=settings.get("stochastic", 0.0),
+            **kwargs,
+        )
     if algo in ("sarsa_lambda", "td_lambda"):
         kwargs.update(
             lam=settings["lam"], trace=settings["trace"], double_alpha=settings["double_alpha"]
@@ -138,7 +162,7 @@ def run_online_on_model(run_dir: str, settings: dict, model: models.TabularModel
         successor=model.intended_successor,
         tie_order=model.tie_order,
     )
-    schedule = exploration.EpsilonSchedule.parse(settings["epsilon"])
+    schedule = exploration.EpsilonSchedule.parse(default_epsilon(settings))
     result = run_online(env, learner, model_env.state_of, settings["steps"], schedule)
     policy = np.array([learner.greedy(s) for s in range(model.n_states)])
     runs.write_rows_csv(
@@ -164,8 +188,162 @@ def run_online_on_model(run_dir: str, settings: dict, model: models.TabularModel
     return summary
 
 
+def learned_reward_table(
+    states: np.ndarray, actions: np.ndarray, rewards: np.ndarray, model: models.TabularModel
+) -> dict[str, float]:
+    """The latest measured reward of every transition made, keyed like tokic_rewards.json."""
+    table = {}
+    for s, a, r in zip(states.tolist(), actions.tolist(), rewards.tolist()):
+        if not model.allowed[s, a]:
+            continue
+        s2 = model.intended_successor(s, a)
+        (r0, c0), (r1, c1) = model.label(s), model.label(s2)
+        table[f"{r0},{c0}->{r1},{c1}"] = r
+    return table
+
+
+def run_crawler(run_dir: str, settings: dict) -> dict:
+    """Online learning on `crawler_walk` (thesis Sec. 4.1.4 "real-time learning").
+
+    Every algorithm acts in the MuJoCo crawler for `steps` moves; value and policy
+    iteration plan on the reward table they measure as they go (Alg. 4.1). With
+    `explore_moves` = N the first N moves are random (ε = 1; the study's approach 1b).
+    Then the greedy policy is frozen and run for `eval_moves` moves: its displacement is the
+    figure of merit; its cycle is read from the grid model from cell (0, 0).
+    """
+    from cpg_suite import crawler
+
+    seed = settings["seed"]
+    env = cpg_suite.load(
+        "crawler_walk",
+        task_kwargs={
+            "random": seed,
+            "time_limit": float("inf"),
+            "stochastic": settings["stochastic"],
+        },
+    )
+    grid = models.grid_model({}, name="crawler_grid")
+
+    def to_state(obs):
+        row, col = (int(v) for v in obs["grid_cell"])
+        return crawler.cell_index(row, col)
+
+    learner = make_learner(
+        settings,
+        grid.n_states,
+        grid.n_actions,
+        np.random.RandomState(seed),
+        allowed=grid.allowed,
+        successor=grid.intended_successor,
+        tie_order=grid.tie_order,
+    )
+    schedule = exploration.EpsilonSchedule.parse(default_epsilon(settings))
+    if settings["explore_moves"] > 0:
+        schedule = _ExploreFirst(settings["explore_moves"], schedule)
+    history = []
+    result = run_online(
+        env,
+        learner,
+        to_state,
+        settings["steps"],
+        schedule,
+        on_step=lambda: history.append(learner.state_values()),
+    )
+    values = np.array([learner.state_values()] + history)[: settings["steps"] + 1]
+
+    # Freeze and evaluate the greedy policy from where learning ended.
+    policy = np.array([learner.greedy(s) for s in range(grid.n_states)])
+    displacement = _run_policy(env, learner, to_state, settings["eval_moves"])
+
+    rewards = learned_reward_table(result.states, result.actions, result.rewards, grid)
+    reference = planning.value_iteration(
+        models.grid_model(
+            {
+                tuple(tuple(int(v) for v in side.split(",")) for side in k.split("->")): v
+                for k, v in rewards.items()
+            }
+        ),
+        settings["gamma"],
+        tol=1e-10,
+    ).values
+    rms = np.sqrt(np.mean((values - reference) ** 2, axis=1))
+    runs.write_rows_csv(
+        os.path.join(run_dir, "progress.csv"),
+        [
+            {
+                "move": t + 1,
+                "state": int(result.states[t]),
+                "action": int(result.actions[t]),
+                "reward_m": float(result.rewards[t]),
+                "epsilon": schedule(t),
+                "rms": float(rms[t + 1]),
+            }
+            for t in range(len(result.rewards))
+        ],
+    )
+    runs.write_rows_csv(
+        os.path.join(run_dir, "learned_rewards.csv"),
+        [{"transition": k, "reward_m": v} for k, v in sorted(rewards.items())],
+    )
+    runs.write_json(os.path.join(run_dir, "learned_rewards.json"), {"rewards": rewards})
+    runs.save_npy(os.path.join(run_dir, "values_history.npy"), values)
+    runs.write_matrix_csv(os.path.join(run_dir, "values.csv"), learner.state_values().reshape(5, 5))
+    cycle = planning.policy_cycle(grid, policy)
+    return {
+        "moves": settings["steps"],
+        "eval_moves": settings["eval_moves"],
+        "cycle": [list(grid.label(s)) for s in cycle.states],
+        "cycle_length": cycle.length,
+        "cycle_joints": _cycle_joints(grid, cycle.states),
+        "cycle_learned_reward_m": float(
+            sum(
+                rewards.get(
+                    f"{grid.label(a)[0]},{grid.label(a)[1]}->{grid.label(b)[0]},{grid.label(b)[1]}",
+                    0.0,
+                )
+                for a, b in zip(cycle.states, cycle.states[1:] + cycle.states[:1])
+            )
+        ),
+        "displacement_m": displacement,
+        "displacement_per_move_m": displacement / max(1, settings["eval_moves"]),
+        "learning_displacement_m": float(result.rewards.sum()),
+        "final_rms": float(rms[-1]),
+        "transitions_measured": len(rewards),
+    }
+
+
+class _ExploreFirst:
+    """ε = 1 for the first `n` moves, then the given schedule (shifted by n)."""
+
+    def __init__(self, n: int, then: exploration.EpsilonSchedule):
+        self.n, self.then = n, then
+
+    def __call__(self, step: int) -> float:
+        return 1.0 if step < self.n else self.then(step - self.n)
+
+
+def _cycle_joints(grid: models.TabularModel, states: list[int]) -> int:
+    """How many of the two joints the cycle moves (1: rows or columns only, 2: both)."""
+    cells = [grid.label(s) for s in states]
+    return int(len({r for r, _ in cells}) > 1) + int(len({c for _, c in cells}) > 1)
+
+
+def _run_policy(env, learner, to_state, moves: int) -> float:
+    """Runs the learner's greedy policy (no learning) for `moves` moves; returns the
+    displacement, m, from the environment's current state."""
+    total = 0.0
+    s = to_state(env.task.get_observation(env.physics))
+    for _ in range(moves):
+        ts = env.step(learner.greedy(s))
+        total += float(ts.reward)
+        s = to_state(ts.observation)
+    return total
+
+
 def run_online_on_task(run_dir: str, settings: dict) -> dict:
-    """A model-free learner on a discrete cpg_suite task through a discretizer."""
+    """A learner on a discrete cpg_suite task (the pole through a discretizer)."""
+    if settings["task"].startswith("crawler"):
+        return run_crawler(run_dir, settings)
     seed = settings["seed"]
     task_kwargs = {"random": seed, "time_limit": float("inf")}
     if settings["task"].startswith("pole"):
@@ -178,7 +356,7 @@ def run_online_on_task(run_dir: str, settings: dict) -> dict:
     learner = make_learner(
         settings, to_state.n_states, spec.num_values, np.random.RandomState(seed)
     )
-    schedule = exploration.EpsilonSchedule.parse(settings["epsilon"])
+    schedule = exploration.EpsilonSchedule.parse(default_epsilon(settings))
     fields = ["episode", "start_step", "end_step", "length", "fell", "return"]
     with runs.ProgressCSV(os.path.join(run_dir, "progress.csv"), fields) as progress:
         result = run_online(
