@@ -1,0 +1,433 @@
+r"""Natural Actor-Critic on a DMP term for balance, as the study ran it (thesis Alg. 5.1).
+
+  python -m baselines.nac --task=darwin_balance                 # normalisation + ridge on
+  python -m baselines.nac --task=darwin_balance --nonormalize --ridge=0   # the study's first try
+
+The CPG walks in place with the hand-tuned amplitudes; a DMP term adds a learned rate to
+hip and ankle roll of both legs (Eq. 5.21-5.22):
+
+  F(φ) = Σₖ ψₖ(φ) θₖ / Σₖ ψₖ(φ),  ψₖ = exp(h (cos(φ − cₖ) − 1)),  h = 2.5 · 15, cₖ = 2πk/15
+  uᵢ ~ N(F(φᵢ), σ²) for each leg i (its own phase, one θ shared by both legs)
+
+Algorithm 5.1, one control step t (16 ms):
+
+  3  draw u ~ π(u | x_t), apply it; 4  observe r_t and x_{t+1}
+  7  φ̃_t = [φ(x_{t+1}); 0]                   8  φ̂_t = [φ(x_t); ∇_θ log π(u_t | x_t)]
+  9  z ← λ z + φ̂_t                          10  A ← A + z (φ̂_t − γ φ̃_t)ᵀ   (γ restored, §4.5)
+  11 b ← b + z r_t                          12  [v; w] = (A + δ I)⁻¹ b      (ridge δ, §4.7)
+  14 if the gradient estimate is accurate:  15  θ ← θ + α w
+  16-17 forget: z ← β z, A ← β A, b ← β b   (only after an actor update)
+
+Basis φ(x) (15): 1, the 12 joint positions the CPG generates (rad), and the two phases
+(wrapped to [0, 2π)). With `--normalize` each is divided by its running standard
+deviation; the constant stays 1 (`--constant_rule=samples` divides it by the number of
+samples, the literal reading of thesis Sec. 5.5). ∇_θ log π = Σᵢ (uᵢ − Fᵢ)/σ² · ψ(φᵢ)/Σψ(φᵢ):
+the two legs' samples are independent, so their scores add.
+
+"Accurate" (the study does not define it): the angle between the current w and the w at
+the previous check, `--check_every` steps earlier, is below `--accuracy_angle` degrees.
+
+Reward: the task's (darwin_balance: −COP distance to the stance sole centre, m; darwin_walk:
+forward displacement, m — the reward-hypothesis test), minus `--fall_penalty` at a fall,
+after which the episode restarts (and z is cleared). Evaluation: mean reward per step of
+the deterministic policy (u = F) over `--eval_seeds` initial states, before (θ = 0, the
+CPG alone) and after learning.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+from absl import flags
+
+import cpg_suite
+from baselines import cli, runs
+from cpg_suite import cpg
+
+TASKS = ("darwin_balance", "darwin_walk")
+N_FEATURES = 15  # 1, 12 joint positions, 2 phases (thesis Sec. 5.4)
+
+_TASK = flags.DEFINE_string("task", "darwin_balance", f"One of {', '.join(TASKS)}.")
+_STEPS = flags.DEFINE_integer("steps", 20000, "Learning steps (16 ms each).")
+_ALPHA = flags.DEFINE_float("alpha", 0.05, "Actor learning rate α.")
+_BETA = flags.DEFINE_float("beta", 0.9, "Forgetting factor β in [0, 1].")
+_GAMMA = flags.DEFINE_float("gamma", 0.95, "Discount γ in [0, 1).")
+_LAMBDA = flags.DEFINE_float("lam", 0.8, "LSTD trace decay λ in [0, 1].")
+_SIGMA = flags.DEFINE_float("sigma", 5.0, "Exploration σ of u, degrees/s.")
+_RIDGE = flags.DEFINE_float("ridge", 1e-2, "Ridge δ added to A's diagonal before solving (0: off).")
+_NORMALIZE = flags.DEFINE_bool("normalize", True, "Divide the basis by its running std.")
+_CONSTANT_RULE = flags.DEFINE_enum(
+    "constant_rule", "one", ["one", "samples"], "Normalisation of the constant feature."
+)
+_EPS_A = flags.DEFINE_float("eps_a", 1e-6, "A starts as eps_a · I.")
+_ACCURACY = flags.DEFINE_float("accuracy_angle", 10.0, "Accuracy test: angle of w, degrees.")
+_CHECK_EVERY = flags.DEFINE_integer("check_every", 50, "Steps between accuracy checks.")
+_FALL_PENALTY = flags.DEFINE_float("fall_penalty", 1.0, "Reward subtracted at a fall.")
+_EVAL_SEEDS = flags.DEFINE_integer("eval_seeds", 5, "Evaluation initial states (100..100+N-1).")
+_SEED = flags.DEFINE_integer("seed", 0, "Seed of exploration and training initial states.")
+_OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs", "Root of the output tree.")
+_RUN_NAME = flags.DEFINE_string("run_name", None, "Run directory name (default from settings).")
+_OVERWRITE = flags.DEFINE_bool("overwrite", False, "Replace an existing run directory.")
+
+THETA_LIMIT = 1e6  # |θ| above this (or a NaN) counts as divergence; the run stops.
+
+
+class NaturalActorCritic:
+    """LSTD(λ)-Q critic with the natural-gradient actor of thesis Alg. 5.1."""
+
+    def __init__(
+        self,
+        n_features: int,
+        n_params: int,
+        alpha: float,
+        beta: float,
+        gamma: float,
+        lam: float,
+        ridge: float = 0.0,
+        eps_a: float = 1e-6,
+        accuracy_angle: float = 10.0,
+        check_every: int = 50,
+    ):
+        n = n_features + n_params
+        self.n_features, self.n_params = n_features, n_params
+        self.alpha, self.beta, self.gamma, self.lam = alpha, beta, gamma, lam
+        self.ridge, self.eps_a = ridge, eps_a
+        self.cos_limit = math.cos(math.radians(accuracy_angle))
+        self.check_every = check_every
+        self.theta = np.zeros(n_params)
+        self.z = np.zeros(n)
+        self.A = eps_a * np.eye(n)
+        self.b = np.zeros(n)
+        self.v = np.zeros(n_features)
+        self.w = np.zeros(n_params)
+        self._w_checked: np.ndarray | None = None
+        self.steps = 0
+        self.updates = 0
+
+    def clear_trace(self) -> None:
+        """Episode boundary: the eligibility trace z starts again."""
+        self.z[:] = 0.0
+
+    def step(
+        self,
+        features: np.ndarray,
+        score: np.ndarray,
+        reward: float,
+        next_features: np.ndarray,
+        terminal: bool = False,
+    ) -> bool:
+        """One critic update (steps 7-12) and, if the gradient is accurate, an actor update.
+
+        Args:
+          features: φ(x_t).
+          score: ∇_θ log π(u_t | x_t).
+          reward: r_t.
+          next_features: φ(x_{t+1}) (ignored at a terminal transition).
+          terminal: The episode ended with this transition (no bootstrap).
+
+        Returns:
+          Whether θ was updated.
+        """
+        phi_hat = np.concatenate([features, score])
+        phi_tilde = np.zeros_like(phi_hat)
+        if not terminal:
+            phi_tilde[: self.n_features] = next_features
+        self.z = self.lam * self.z + phi_hat
+        self.A += np.outer(self.z, phi_hat - self.gamma * phi_tilde)
+        self.b += self.z * reward
+        matrix = self.A + self.ridge * np.eye(len(self.b)) if self.ridge else self.A
+        try:
+            solution = np.linalg.solve(matrix, self.b)
+        except np.linalg.LinAlgError:
+            solution = np.linalg.lstsq(matrix, self.b, rcond=None)[0]
+        self.v, self.w = solution[: self.n_features], solution[self.n_features :]
+        self.steps += 1
+        if self.steps % self.check_every:
+            return False
+        accurate = False
+        if self._w_checked is not None:
+            norms = np.linalg.norm(self.w) * np.linalg.norm(self._w_checked)
+            accurate = norms > 0 and float(self.w @ self._w_checked) / norms > self.cos_limit
+        self._w_checked = self.w.copy()
+        if not accurate:
+            return False
+        self.theta = self.theta + self.alpha * self.w  # step 15
+        self.z *= self.beta  # steps 16-17: forget after an actor update
+        self.A *= self.beta
+        self.b *= self.beta
+        self.updates += 1
+        return True
+
+
+class RunningStd:
+    """Welford running standard deviation of feature vectors."""
+
+    def __init__(self, n: int):
+        self.n, self.mean, self.m2 = 0, np.zeros(n), np.zeros(n)
+
+    def update(self, x: np.ndarray) -> None:
+        self.n += 1
+        delta = x - self.mean
+        self.mean += delta / self.n
+        self.m2 += delta * (x - self.mean)
+
+    def std(self) -> np.ndarray:
+        return np.sqrt(self.m2 / max(1, self.n - 1))
+
+
+class Features:
+    """φ(x) = [1, 12 CPG joint positions (rad), φ_L, φ_R] with optional normalisation."""
+
+    def __init__(self, normalize: bool, constant_rule: str = "one"):
+        self.normalize, self.constant_rule = normalize, constant_rule
+        self.stats = RunningStd(N_FEATURES)
+
+    def raw(self, pattern: cpg.CPG) -> np.ndarray:
+        phases = np.mod(pattern.phases(), 2 * np.pi)
+        return np.concatenate([[1.0], np.deg2rad(pattern.z[0]), phases])
+
+    def __call__(self, pattern: cpg.CPG, learn: bool = True) -> np.ndarray:
+        x = self.raw(pattern)
+        if not self.normalize:
+            return x
+        if learn:
+            self.stats.update(x)
+        std = self.stats.std()
+        out = x.copy()
+        out[1:] = np.where(std[1:] > 1e-9, x[1:] / np.maximum(std[1:], 1e-9), x[1:])
+        out[0] = 1.0 / max(1, self.stats.n) if self.constant_rule == "samples" else 1.0
+        return out
+
+
+def dmp_policy(theta: np.ndarray, phases: np.ndarray, sigma: float, rng=None):
+    """F per leg, the applied u per leg, and ∇_θ log π (summed over the two legs)."""
+    psi = cpg.dmp_kernels(np.mod(phases, 2 * np.pi), len(theta))  # (2, N)
+    weights = psi / psi.sum(axis=1, keepdims=True)
+    mean = weights @ theta
+    if rng is None:
+        return mean, mean, np.zeros_like(theta)
+    u = mean + sigma * rng.standard_normal(2)
+    score = ((u - mean) / sigma**2) @ weights
+    return mean, u, score
+
+
+def evaluate_policy(
+    task: str, theta: np.ndarray, seeds, steps: int = 1000, fall_penalty: float = 1.0
+) -> dict:
+    """Mean reward per step of the deterministic DMP policy (u = F) over initial states."""
+    rewards, falls = [], 0
+    for seed in seeds:
+        env = cpg_suite.load(task, task_kwargs={"random": int(seed)})
+        pattern = cpg.CPG("hand_tuned")
+        env.reset()
+        total, n = 0.0, 0
+        for _ in range(steps):
+            _, u, _ = dmp_policy(theta, pattern.phases(), 0.0)
+            pattern.set_roll_input(u)
+            ts = env.step(env.physics.targets_to_action(pattern.step(env.control_timestep())))
+            total += ts.reward
+            n += 1
+            if ts.last():
+                if ts.discount == 0.0:
+                    falls += 1
+                    total -= fall_penalty
+                break
+        rewards.append(total / n)
+    return {"reward_per_step": float(np.mean(rewards)), "per_seed": rewards, "falls": falls}
+
+
+def train(settings: dict, log=print) -> dict:
+    """Runs Algorithm 5.1 for `steps` control steps; returns the learning record."""
+    rng = np.random.default_rng(settings["seed"])
+    nac = NaturalActorCritic(
+        N_FEATURES,
+        cpg.N_KERNELS,
+        settings["alpha"],
+        settings["beta"],
+        settings["gamma"],
+        settings["lam"],
+        settings["ridge"],
+        settings["eps_a"],
+        settings["accuracy_angle"],
+        settings["check_every"],
+    )
+    features = Features(settings["normalize"], settings["constant_rule"])
+    episode = 0
+    env = cpg_suite.load(settings["task"], task_kwargs={"random": settings["seed"]})
+    dt = env.control_timestep()
+    pattern = cpg.CPG("hand_tuned")
+    env.reset()
+    x = features(pattern)
+    rows, theta_norm_max, diverged, falls = [], 0.0, False, 0
+    reward_sum, reward_n, f_abs_max = 0.0, 0, 0.0
+    for t in range(settings["steps"]):
+        mean, u, score = dmp_policy(nac.theta, pattern.phases(), settings["sigma"], rng)
+        f_abs_max = max(f_abs_max, float(np.abs(mean).max()))
+        pattern.set_roll_input(u)
+        ts = env.step(env.physics.targets_to_action(pattern.step(dt)))
+        reward = float(ts.reward)
+        fell = ts.last() and ts.discount == 0.0
+        if fell:
+            reward -= settings["fall_penalty"]
+            falls += 1
+        x_next = features(pattern)
+        nac.step(x, score, reward, x_next, terminal=fell)
+        reward_sum += reward
+        reward_n += 1
+        norm = float(np.linalg.norm(nac.theta))
+        if not np.isfinite(norm) or norm > THETA_LIMIT:
+            diverged = True
+        theta_norm_max = max(theta_norm_max, norm if np.isfinite(norm) else np.inf)
+        if ts.last():
+            episode += 1
+            nac.clear_trace()
+            env = cpg_suite.load(
+                settings["task"], task_kwargs={"random": settings["seed"] * 100_003 + episode}
+            )
+            pattern = cpg.CPG("hand_tuned")
+            env.reset()
+            x_next = features(pattern)
+        x = x_next
+        if (t + 1) % 500 == 0 or diverged:
+            rows.append(
+                {
+                    "step": t + 1,
+                    "episode": episode,
+                    "mean_reward": reward_sum / reward_n,
+                    "theta_norm": norm,
+                    "max_abs_F": f_abs_max,
+                    "updates": nac.updates,
+                    "falls": falls,
+                }
+            )
+            log(
+                f"step {t + 1:6d}  reward/step {reward_sum / reward_n:+.5f}  |θ| {norm:.3g}  "
+                f"max|F| {f_abs_max:.3g}  actor updates {nac.updates}  falls {falls}"
+            )
+            reward_sum, reward_n, f_abs_max = 0.0, 0, 0.0
+        if diverged:
+            break
+    return {
+        "theta": nac.theta,
+        "rows": rows,
+        "theta_norm_max": theta_norm_max,
+        "diverged": diverged,
+        "updates": nac.updates,
+        "falls": falls,
+        "steps": t + 1,
+    }
+
+
+def default_run_name(settings: dict) -> str:
+    fixes = ("norm" if settings["normalize"] else "nonorm") + (
+        f"_ridge{settings['ridge']:g}" if settings["ridge"] else "_noridge"
+    )
+    return f"{fixes}_seed{settings['seed']}"
+
+
+def run_nac(settings: dict, log=print) -> tuple[str, dict]:
+    """Trains, evaluates before and after, and writes the run directory."""
+    run_name = settings.get("run_name") or default_run_name(settings)
+    run_dir = runs.run_directory(
+        settings["output_dir"],
+        "nac",
+        settings["task"],
+        run_name,
+        overwrite=settings.get("overwrite", False),
+    )
+    runs.write_config(run_dir, settings)
+    start = time.perf_counter()
+    record = train(settings, log)
+    seeds = range(100, 100 + settings["eval_seeds"])
+    before = evaluate_policy(
+        settings["task"], np.zeros(cpg.N_KERNELS), seeds, fall_penalty=settings["fall_penalty"]
+    )
+    theta = record["theta"]
+    after = (
+        evaluate_policy(settings["task"], theta, seeds, fall_penalty=settings["fall_penalty"])
+        if not record["diverged"]
+        else {"reward_per_step": None, "per_seed": [], "falls": None}
+    )
+    runs.write_rows_csv(os.path.join(run_dir, "progress.csv"), record["rows"])
+    runs.write_json(os.path.join(run_dir, "theta.json"), {"theta": theta.tolist()})
+    summary = {
+        "task": settings["task"],
+        "seed": settings["seed"],
+        "normalize": settings["normalize"],
+        "ridge": settings["ridge"],
+        "reward_before": before["reward_per_step"],
+        "reward_after": after["reward_per_step"],
+        "reward_before_per_seed": before["per_seed"],
+        "reward_after_per_seed": after["per_seed"],
+        "falls_before": before["falls"],
+        "falls_after": after["falls"],
+        "theta_norm_max": record["theta_norm_max"],
+        "theta_norm_final": float(np.linalg.norm(theta)) if np.all(np.isfinite(theta)) else None,
+        "diverged": record["diverged"],
+        "actor_updates": record["updates"],
+        "training_falls": record["falls"],
+        "steps": record["steps"],
+        "wall_s": time.perf_counter() - start,
+    }
+    runs.write_json(os.path.join(run_dir, "summary.json"), summary)
+    return run_dir, summary
+
+
+def main(argv):
+    del argv
+    cli.check(_TASK.value in TASKS, f"unknown --task {_TASK.value!r}; valid: {', '.join(TASKS)}")
+    cli.check(_STEPS.value >= 1, f"--steps must be ≥ 1, got {_STEPS.value}")
+    cli.check(_ALPHA.value >= 0, f"--alpha must be ≥ 0, got {_ALPHA.value}")
+    for name, flag in (("beta", _BETA), ("lam", _LAMBDA)):
+        cli.check(0.0 <= flag.value <= 1.0, f"--{name} must lie in [0, 1], got {flag.value}")
+    cli.check(0.0 <= _GAMMA.value < 1.0, f"--gamma must lie in [0, 1), got {_GAMMA.value}")
+    cli.check(_SIGMA.value > 0, f"--sigma must be > 0, got {_SIGMA.value}")
+    cli.check(_RIDGE.value >= 0, f"--ridge must be ≥ 0, got {_RIDGE.value}")
+    cli.check(_EPS_A.value > 0, f"--eps_a must be > 0, got {_EPS_A.value}")
+    cli.check(
+        0 < _ACCURACY.value <= 180, f"--accuracy_angle must lie in (0, 180], got {_ACCURACY.value}"
+    )
+    cli.check(_CHECK_EVERY.value >= 1, f"--check_every must be ≥ 1, got {_CHECK_EVERY.value}")
+    cli.check(_EVAL_SEEDS.value >= 1, f"--eval_seeds must be ≥ 1, got {_EVAL_SEEDS.value}")
+    cli.check(_FALL_PENALTY.value >= 0, f"--fall_penalty must be ≥ 0, got {_FALL_PENALTY.value}")
+    settings = {
+        name: flags.FLAGS[name].value
+        for name in (
+            "task",
+            "steps",
+            "alpha",
+            "beta",
+            "gamma",
+            "lam",
+            "sigma",
+            "ridge",
+            "normalize",
+            "constant_rule",
+            "eps_a",
+            "accuracy_angle",
+            "check_every",
+            "fall_penalty",
+            "eval_seeds",
+            "seed",
+            "output_dir",
+            "run_name",
+            "overwrite",
+        )
+    }
+    try:
+        run_dir, summary = run_nac(settings)
+    except runs.RunDirectoryExists as e:
+        raise cli.UsageError(str(e)) from None
+    after = summary["reward_after"]
+    after = "n/a (diverged)" if after is None else f"{after:+.5f}"
+    print(
+        f"{run_dir}: reward/step before {summary['reward_before']:+.5f}, after {after}, "
+        f"max |θ| {summary['theta_norm_max']:.3g}, diverged {summary['diverged']}"
+    )
+
+
+if __name__ == "__main__":
+    cli.run(main)
