@@ -47,7 +47,7 @@ CONFIGS = {
     "walk": {"task": "darwin_walk", "normalize": True, "ridge": 1e-2},
 }
 BASE = {
-    "alpha": 0.05,
+    "alpha": 100.0,
     "beta": 0.9,
     "gamma": 0.95,
     "lam": 0.8,
