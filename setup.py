@@ -44,8 +44,8 @@ setup(
         "pandas>=2.0,<4",
     ],
     extras_require={
-        # The tests also render a gait video (Pillow for GIF/PNG, imageio + ffmpeg for MP4)
-        # and run CMA-ES.
+        # The tests also render a gait video (Pillow for GIF/PNG, imageio + ffmpeg for MP4),
+        # run CMA-ES and check the Gymnasium wrappers.
         "test": [
             "pytest>=7,<10",
             "ruff>=0.5",
@@ -53,6 +53,8 @@ setup(
             "imageio>=2.30,<3",
             "imageio-ffmpeg>=0.5,<1",
             "cma>=3.3,<5",
+            "gymnasium>=1.0,<2",
+            "shimmy[dm-control]>=2.0,<3",
         ],
         "plots": [
             "matplotlib>=3.7,<4",
