@@ -1,6 +1,6 @@
 r"""The study's NAC finding (thesis Sec. 5.5, claims NAC-*) and the reward-hypothesis test.
 
-  python -m baselines.nac_experiments --output_dir=runs/nac --seeds=5
+  python -m baselines.nac_experiments --output_dir=runs/nac --seeds=5 [--steps=20000]
 
 Three configurations of `baselines.nac`, `--seeds` seeds each:
   * `nofix`: no basis normalisation, no ridge (the study's first attempt: θ blew up);
@@ -22,9 +22,10 @@ from absl import flags
 
 from baselines import cli, nac, runs
 
-_OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs/nac", "Root of the output tree.")
+# --output_dir and --steps are `baselines.nac`'s flags (imported above), shared here.
+_OUTPUT_DIR = nac._OUTPUT_DIR
+_STEPS = nac._STEPS
 _SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration.")
-_STEPS = flags.DEFINE_integer("steps", 20000, "Learning steps per run.")
 _RESUME = flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
 
 # Two-sided 95 % Student t quantiles by degrees of freedom.

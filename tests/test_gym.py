@@ -6,8 +6,9 @@ import pytest
 gymnasium = pytest.importorskip("gymnasium")
 pytest.importorskip("shimmy")
 
-import cpg_suite.gym  # noqa: E402
 from gymnasium.utils.env_checker import check_env  # noqa: E402
+
+import cpg_suite.gym  # noqa: E402
 
 
 @pytest.mark.parametrize("env_id", cpg_suite.gym.ENV_IDS)

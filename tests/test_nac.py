@@ -140,3 +140,10 @@ def test_cli_bad_flags(tmp_path, args, words):
         timeout=120,
     )
     assert out.returncode == 2 and words in out.stderr
+
+
+def test_experiments_cli_bad_flags(tmp_path):
+    out = subprocess.run([sys.executable, "-m", "baselines.nac_experiments", "--seeds=1",
+                          f"--output_dir={tmp_path}"], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 2 and "--seeds" in out.stderr
