@@ -32,11 +32,16 @@ from absl import flags
 from baselines import cli, optimize
 from cpg_suite import cpg
 
-_ELITE = flags.DEFINE_integer("elite", 2, "Elite samples kept per round.")
-_NOISE = flags.DEFINE_float("noise", 0.8, "Variance added to the covariance diagonal, deg².")
-_GRID = flags.DEFINE_enum("grid", None, ["table6_3"], "Run a whole table of settings.")
-_SEEDS = flags.DEFINE_integer("seeds", 3, "--grid: seeds per setting (0..N-1).")
-_SETTINGS = flags.DEFINE_string("settings", None, "--grid: only these settings (comma list).")
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    global _ELITE, _NOISE, _GRID, _SEEDS, _SETTINGS
+    _ELITE = flags.DEFINE_integer("elite", 2, "Elite samples kept per round.")
+    _NOISE = flags.DEFINE_float("noise", 0.8, "Variance added to the covariance diagonal, deg².")
+    _GRID = flags.DEFINE_enum("grid", None, ["table6_3"], "Run a whole table of settings.")
+    _SEEDS = flags.DEFINE_integer("seeds", 3, "--grid: seeds per setting (0..N-1).")
+    _SETTINGS = flags.DEFINE_string("settings", None, "--grid: only these settings (comma list).")
+
 
 # Thesis Table 6.3 (K, noise, elite), plus the variants of Sec. 6.3: the lateral penalty
 # and noise 0.2 / 1.0 (K 10, elite 2). Names are run-name prefixes.
@@ -180,4 +185,6 @@ def main(argv):
 
 
 if __name__ == "__main__":
+    optimize.define_flags()
+    define_flags()
     cli.run(main)

@@ -21,7 +21,11 @@ from absl import flags
 from baselines import cli, optimize
 from cpg_suite import cpg
 
-_SIGMA0 = flags.DEFINE_float("sigma0", 1.0, "Initial step size σ₀, degrees.")
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    global _SIGMA0
+    _SIGMA0 = flags.DEFINE_float("sigma0", 1.0, "Initial step size σ₀, degrees.")
 
 
 class CMAES:
@@ -123,4 +127,6 @@ def main(argv):
 
 
 if __name__ == "__main__":
+    optimize.define_flags()
+    define_flags()
     cli.run(main)

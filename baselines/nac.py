@@ -54,29 +54,55 @@ from cpg_suite import cpg
 TASKS = ("darwin_balance", "darwin_walk")
 N_FEATURES = 15  # 1, 12 joint positions, 2 phases (thesis Sec. 5.4)
 
-_TASK = flags.DEFINE_string("task", "darwin_balance", f"One of {', '.join(TASKS)}.")
-_STEPS = flags.DEFINE_integer("steps", 20000, "Learning steps (16 ms each).")
-_ALPHA = flags.DEFINE_float(
-    "alpha", 100.0, "Actor learning rate α (rewards are metres per step: small; see docstring)."
-)
-_BETA = flags.DEFINE_float("beta", 0.9, "Forgetting factor β in [0, 1].")
-_GAMMA = flags.DEFINE_float("gamma", 0.95, "Discount γ in [0, 1).")
-_LAMBDA = flags.DEFINE_float("lam", 0.8, "LSTD trace decay λ in [0, 1].")
-_SIGMA = flags.DEFINE_float("sigma", 5.0, "Exploration σ of u, degrees/s.")
-_RIDGE = flags.DEFINE_float("ridge", 1e-2, "Ridge δ added to A's diagonal before solving (0: off).")
-_NORMALIZE = flags.DEFINE_bool("normalize", True, "Divide the basis by its running std.")
-_CONSTANT_RULE = flags.DEFINE_enum(
-    "constant_rule", "one", ["one", "samples"], "Normalisation of the constant feature."
-)
-_EPS_A = flags.DEFINE_float("eps_a", 1e-6, "A starts as eps_a · I.")
-_ACCURACY = flags.DEFINE_float("accuracy_angle", 10.0, "Accuracy test: angle of w, degrees.")
-_CHECK_EVERY = flags.DEFINE_integer("check_every", 50, "Steps between accuracy checks.")
-_FALL_PENALTY = flags.DEFINE_float("fall_penalty", 1.0, "Reward subtracted at a fall.")
-_EVAL_SEEDS = flags.DEFINE_integer("eval_seeds", 5, "Evaluation initial states (100..100+N-1).")
-_SEED = flags.DEFINE_integer("seed", 0, "Seed of exploration and training initial states.")
-_OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs", "Root of the output tree.")
-_RUN_NAME = flags.DEFINE_string("run_name", None, "Run directory name (default from settings).")
-_OVERWRITE = flags.DEFINE_bool("overwrite", False, "Replace an existing run directory.")
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    global \
+        _TASK, \
+        _STEPS, \
+        _ALPHA, \
+        _BETA, \
+        _GAMMA, \
+        _LAMBDA, \
+        _SIGMA, \
+        _RIDGE, \
+        _NORMALIZE, \
+        _CONSTANT_RULE, \
+        _EPS_A, \
+        _ACCURACY, \
+        _CHECK_EVERY, \
+        _FALL_PENALTY, \
+        _EVAL_SEEDS, \
+        _SEED, \
+        _OUTPUT_DIR, \
+        _RUN_NAME, \
+        _OVERWRITE
+    _TASK = flags.DEFINE_string("task", "darwin_balance", f"One of {', '.join(TASKS)}.")
+    _STEPS = flags.DEFINE_integer("steps", 20000, "Learning steps (16 ms each).")
+    _ALPHA = flags.DEFINE_float(
+        "alpha", 100.0, "Actor learning rate α (rewards are metres per step: small; see docstring)."
+    )
+    _BETA = flags.DEFINE_float("beta", 0.9, "Forgetting factor β in [0, 1].")
+    _GAMMA = flags.DEFINE_float("gamma", 0.95, "Discount γ in [0, 1).")
+    _LAMBDA = flags.DEFINE_float("lam", 0.8, "LSTD trace decay λ in [0, 1].")
+    _SIGMA = flags.DEFINE_float("sigma", 5.0, "Exploration σ of u, degrees/s.")
+    _RIDGE = flags.DEFINE_float(
+        "ridge", 1e-2, "Ridge δ added to A's diagonal before solving (0: off)."
+    )
+    _NORMALIZE = flags.DEFINE_bool("normalize", True, "Divide the basis by its running std.")
+    _CONSTANT_RULE = flags.DEFINE_enum(
+        "constant_rule", "one", ["one", "samples"], "Normalisation of the constant feature."
+    )
+    _EPS_A = flags.DEFINE_float("eps_a", 1e-6, "A starts as eps_a · I.")
+    _ACCURACY = flags.DEFINE_float("accuracy_angle", 10.0, "Accuracy test: angle of w, degrees.")
+    _CHECK_EVERY = flags.DEFINE_integer("check_every", 50, "Steps between accuracy checks.")
+    _FALL_PENALTY = flags.DEFINE_float("fall_penalty", 1.0, "Reward subtracted at a fall.")
+    _EVAL_SEEDS = flags.DEFINE_integer("eval_seeds", 5, "Evaluation initial states (100..100+N-1).")
+    _SEED = flags.DEFINE_integer("seed", 0, "Seed of exploration and training initial states.")
+    _OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs", "Root of the output tree.")
+    _RUN_NAME = flags.DEFINE_string("run_name", None, "Run directory name (default from settings).")
+    _OVERWRITE = flags.DEFINE_bool("overwrite", False, "Replace an existing run directory.")
+
 
 THETA_LIMIT = 1e6  # |θ| above this (or a NaN) counts as divergence; the run stops.
 
@@ -436,4 +462,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+    define_flags()
     cli.run(main)

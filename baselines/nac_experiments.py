@@ -22,11 +22,17 @@ from absl import flags
 
 from baselines import cli, nac, runs
 
+
 # --output_dir and --steps are `baselines.nac`'s flags (imported above), shared here.
-_OUTPUT_DIR = nac._OUTPUT_DIR
-_STEPS = nac._STEPS
-_SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration.")
-_RESUME = flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    global _OUTPUT_DIR, _STEPS, _SEEDS, _RESUME
+    nac.define_flags()  # --output_dir, --steps and the rest of NAC's flags are shared.
+    _OUTPUT_DIR = nac._OUTPUT_DIR
+    _STEPS = nac._STEPS
+    _SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration.")
+    _RESUME = flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
+
 
 # Two-sided 95 % Student t quantiles by degrees of freedom.
 _T95 = {
@@ -135,4 +141,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+    define_flags()
     cli.run(main)

@@ -28,26 +28,46 @@ from cpg_suite import cpg
 
 TASKS = ("darwin_walk",)
 
+
 # Flags shared by every gait optimizer (`baselines.cem`, `baselines.cmaes`).
-_TASK = flags.DEFINE_string("task", "darwin_walk", f"Task: {', '.join(TASKS)}.")
-_POPULATION = flags.DEFINE_integer("population", 50, "Samples per round K (the study: 10-50).")
-_ROUNDS = flags.DEFINE_integer("rounds", 50, "Rounds.")
-_SEED = flags.DEFINE_integer("seed", 0, "Sampling seed.")
-_TRIAL_STEPS = flags.DEFINE_integer(
-    "trial_steps", 1000, "Control steps per trial (the study: 1000)."
-)
-_EVAL_SEEDS = flags.DEFINE_integer(
-    "eval_seeds", 1, "Initial states each candidate is scored on (seeds 0..N-1), every round."
-)
-_FALL_PENALTY = flags.DEFINE_float("fall_penalty", 1.0, "Cost of a fall (m of distance).")
-_LATERAL_PENALTY = flags.DEFINE_float(
-    "lateral_penalty", 0.0, "Cost per metre of lateral displacement (the study's variant)."
-)
-_THREADS = flags.DEFINE_integer("threads", 2, "Evaluator threads (results do not depend on it).")
-_OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs", "Root of the output tree.")
-_RUN_NAME = flags.DEFINE_string("run_name", None, "Run directory name (default from settings).")
-_RESUME = flags.DEFINE_bool("resume", False, "Continue runs from their checkpoints.")
-_OVERWRITE = flags.DEFINE_bool("overwrite", False, "Replace existing run directories.")
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    global \
+        _TASK, \
+        _POPULATION, \
+        _ROUNDS, \
+        _SEED, \
+        _TRIAL_STEPS, \
+        _EVAL_SEEDS, \
+        _FALL_PENALTY, \
+        _LATERAL_PENALTY, \
+        _THREADS, \
+        _OUTPUT_DIR, \
+        _RUN_NAME, \
+        _RESUME, \
+        _OVERWRITE
+    _TASK = flags.DEFINE_string("task", "darwin_walk", f"Task: {', '.join(TASKS)}.")
+    _POPULATION = flags.DEFINE_integer("population", 50, "Samples per round K (the study: 10-50).")
+    _ROUNDS = flags.DEFINE_integer("rounds", 50, "Rounds.")
+    _SEED = flags.DEFINE_integer("seed", 0, "Sampling seed.")
+    _TRIAL_STEPS = flags.DEFINE_integer(
+        "trial_steps", 1000, "Control steps per trial (the study: 1000)."
+    )
+    _EVAL_SEEDS = flags.DEFINE_integer(
+        "eval_seeds", 1, "Initial states each candidate is scored on (seeds 0..N-1), every round."
+    )
+    _FALL_PENALTY = flags.DEFINE_float("fall_penalty", 1.0, "Cost of a fall (m of distance).")
+    _LATERAL_PENALTY = flags.DEFINE_float(
+        "lateral_penalty", 0.0, "Cost per metre of lateral displacement (the study's variant)."
+    )
+    _THREADS = flags.DEFINE_integer(
+        "threads", 2, "Evaluator threads (results do not depend on it)."
+    )
+    _OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs", "Root of the output tree.")
+    _RUN_NAME = flags.DEFINE_string("run_name", None, "Run directory name (default from settings).")
+    _RESUME = flags.DEFINE_bool("resume", False, "Continue runs from their checkpoints.")
+    _OVERWRITE = flags.DEFINE_bool("overwrite", False, "Replace existing run directories.")
+
 
 # Settings that must match for a checkpoint to be resumed (plus the method's own).
 _IDENTITY = (
