@@ -103,23 +103,24 @@ def tokic_experiments(output_dir: str) -> list[str]:
                 )
     runs.write_rows_csv(os.path.join(output_dir, "fig4_4.csv"), rows)
 
-    def first_within(history, target, tol=0.01):
-        for k, values in enumerate(history):
-            if np.abs(values[cycle.states] - target[cycle.states]).max() < tol:
-                return k
-        return None
-
     converged = planning.value_iteration(model, 0.9).values
+
+    def gap(history, k):
+        return float(np.abs(history[k][cycle.states] - converged[cycle.states]).max())
+
+    pi_done = next((k for k in range(len(pi.history)) if gap(pi.history, k) < 1e-6), None)
     lines += [
         f"Greedy cycle at γ = 0.9 (value iteration to convergence): {cells}, "
         f"{cycle.length} states, reward {cycle.reward:g} per cycle (the study: 6 states, "
         "CR-1).",
         "",
-        f"Values of the six cycle states within 0.01 of the converged values after "
-        f"{first_within(vi.history, converged)} value-iteration sweeps and "
-        f"{first_within(pi.history, converged)} policy-iteration iterations (exact "
-        "evaluation, random initial policy; data of thesis Fig. 4.4 in `fig4_4.csv`; "
-        "the study: value iteration converges faster, CR-5).",
+        "Values of the six cycle states (data of thesis Fig. 4.4 in `fig4_4.csv`): after "
+        f"10 / 30 value-iteration sweeps they are within {gap(vi.history, 10):.2f} / "
+        f"{gap(vi.history, 30):.2f} of the converged values; policy iteration (random initial "
+        f"policy, exact evaluation) has them exactly after {pi_done} iterations. Counted in "
+        "iterations, policy iteration converges faster here; each of its iterations solves a "
+        "25 × 25 linear system where a value-iteration sweep makes 25 backups (the study: "
+        "value iteration converges faster, CR-5).",
         "",
         "| γ | greedy cycle from (0,0) | length | reward per cycle |",
         "|---|---|---|---|",
