@@ -104,7 +104,7 @@ def main() -> None:
             "seed": 0,
             "trial_steps": 1000,
             "eval_seeds": 1,
-            "fall_penalty": 1.0,
+            "fall_penalty": 10.0,
             "lateral_penalty": 0.0,
             "output_dir": out,
             "run_name": "bench",
