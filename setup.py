@@ -33,6 +33,7 @@ setup(
     packages=["cpg_suite", "baselines", "baselines.tabular", "analysis"],
     package_data={
         "cpg_suite": ["xml/*.xml", "xml/common/*.xml", "data/*.json", "data/*.md"],
+        "analysis": ["*.csv"],
     },
     # Ranges we have tested. dm-control 1.0.50 breaks with mujoco 4.x (flex_vertedge).
     install_requires=[

@@ -1,10 +1,37 @@
-"""Published numbers of the study, with their sources (THESIS.md Sec. 6 ids).
+"""Published numbers and claims of the study, with their sources.
 
-Distances are the thesis' "u.d." (units of distance, never defined; Webots' default unit is
-the metre). Only the CEM results of thesis Table 6.3 and Sec. 6.3 are here so far.
+* `published.csv`: every number and claim row of the project's digest of the thesis
+  (THESIS.md Sec. 6; ids like `CEM-N25`): domain, method, setting, quantity, value, unit,
+  thesis section/table/figure, kind (number / claim).
+* `published_claims.csv`: every testable claim of the digest's narrative (ids like `CR-1`,
+  `PB-8`, `NAC-3`), with its statement.
+
+Both were extracted from the digest of Duarte's thesis ("Using Reinforcement Learning in the
+tuning of Central Pattern Generators", U. Minho); distances are its "u.d." (units of
+distance, never defined; Webots' default unit is the metre).
 """
 
 from __future__ import annotations
+
+import csv
+import importlib.resources
+
+
+def _read(name: str) -> list[dict]:
+    text = importlib.resources.files("analysis").joinpath(name).read_text(encoding="utf-8")
+    return list(csv.DictReader(text.splitlines()))
+
+
+# Every number and claim row of THESIS.md Sec. 6, by id.
+NUMBERS = {row["id"]: row for row in _read("published.csv")}
+# Every narrative claim (CR-n, PB-n, CPG-n, NAC-n, CEMT-n), id -> statement.
+CLAIMS = {row["id"]: row["statement"] for row in _read("published_claims.csv")}
+for _id, _row in NUMBERS.items():
+    if _row["kind"] == "claim":
+        CLAIMS[_id] = (
+            f"{_row['domain']} / {_row['method']} / {_row['setting']}: "
+            f"{_row['quantity']} = {_row['value']} ({_row['source']})"
+        )
 
 # Thesis Table 6.3 and Sec. 6.3: setting -> (best distance, round of best, id of distance,
 # id of round). Setting names match `baselines.cem.TABLE6_3`.
@@ -29,3 +56,10 @@ NOISE_CLAIMS = {
 }
 
 SOURCE = "Duarte, thesis Table 6.3 and Sec. 6.3"
+
+# Real-time crawler displacements (thesis Sec. 4.1.7): method -> (u.d., source).
+CRAWLER = {
+    "value_iteration": (7.57, "thesis 4.1.7 (CR-N21; u.d., Webots crawler)"),
+    "td0": (6.93, "thesis 4.1.7 (CR-N23; u.d., Webots crawler)"),
+    "td_lambda": (5.26, "thesis 4.1.7 (CR-N24; u.d., Webots crawler)"),
+}

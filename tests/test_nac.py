@@ -143,7 +143,16 @@ def test_cli_bad_flags(tmp_path, args, words):
 
 
 def test_experiments_cli_bad_flags(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "baselines.nac_experiments", "--seeds=1",
-                          f"--output_dir={tmp_path}"], capture_output=True, text=True,
-                         timeout=120)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "baselines.nac_experiments",
+            "--seeds=1",
+            f"--output_dir={tmp_path}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 2 and "--seeds" in out.stderr

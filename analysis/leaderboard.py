@@ -1,0 +1,318 @@
+r"""Leaderboard and claims tables from run directories (DESIGN Sec. 8).
+
+  python -m analysis.leaderboard --runs=DIR --out=leaderboard.csv
+
+Reads every `<DIR>/**/<method>/<task>/<run_name>/summary.json` (run files only) and writes
+
+* `leaderboard.csv`: one row per (task, method, configuration, metric) over all seeds —
+  `n`, `mean`, `std`, 95 % t-interval, `best`, the published value and its source, the
+  ratio to it and whether it is beaten. A configuration is the run name without its
+  `_seed<k>` suffix.
+* `claims.csv` beside it: each published claim this data can speak to, the measured
+  evidence and whether it holds (`yes` / `no`), and `untested` for the rest. Claims
+  already judged by an experiment script (`pole_claims.csv`, found anywhere under DIR)
+  are carried over.
+
+Missing or malformed run files are skipped and listed on stderr, never a crash.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import sys
+from collections import defaultdict
+
+import numpy as np
+
+from analysis import published
+
+_SEED = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
+_T95 = {
+    1: 12.706,
+    2: 4.303,
+    3: 3.182,
+    4: 2.776,
+    5: 2.571,
+    6: 2.447,
+    7: 2.365,
+    8: 2.306,
+    9: 2.262,
+    10: 2.228,
+}
+
+# (method, task) -> [(metric key in summary.json, unit, higher is better)].
+METRICS = {
+    "darwin_walk": [("best_distance_m", "m", True), ("final_mean_distance_m", "m", True)],
+    "pole_balance": [
+        ("balanced_last_5000", "fraction of runs", True),
+        ("falls", "falls", False),
+        ("rms_angle_last_5000", "rad", False),
+    ],
+    "crawler_walk": [("displacement_m", "m per 100 moves", True), ("cycle_length", "states", True)],
+    "tokic": [("cycle_reward", "reward per cycle", True), ("cycle_length", "states", True)],
+    "darwin_balance": [("reward_before", "m per step", True), ("reward_after", "m per step", True)],
+}
+LEADERBOARD_FIELDS = [
+    "task",
+    "method",
+    "config",
+    "metric",
+    "unit",
+    "n",
+    "mean",
+    "std",
+    "ci95_low",
+    "ci95_high",
+    "best",
+    "published",
+    "published_source",
+    "ratio_to_published",
+    "beats_published",
+]
+CLAIM_FIELDS = ["claim_id", "statement", "evidence", "holds"]
+
+
+def find_runs(root: str) -> tuple[list[dict], list[str]]:
+    """Every readable run: method, task, config, seed, summary; and the skipped paths."""
+    found, skipped = [], []
+    for dirpath, _, filenames in os.walk(root):
+        if "summary.json" not in filenames:
+            continue
+        path = os.path.join(dirpath, "summary.json")
+        parts = os.path.normpath(dirpath).split(os.sep)
+        if len(parts) < 3:
+            skipped.append(f"{path}: not <method>/<task>/<run>")
+            continue
+        method, task, run_name = parts[-3], parts[-2], parts[-1]
+        try:
+            with open(path, encoding="utf-8") as f:
+                summary = json.load(f)
+            if not isinstance(summary, dict):
+                raise ValueError("not an object")
+        except (OSError, ValueError) as e:
+            skipped.append(f"{path}: {type(e).__name__}")
+            continue
+        match = _SEED.match(run_name)
+        config = (match["config"] or "default") if match else run_name
+        seed = int(match["seed"]) if match else None
+        found.append(
+            {
+                "method": method,
+                "task": task,
+                "config": config,
+                "seed": seed,
+                "summary": summary,
+                "dir": dirpath,
+            }
+        )
+    return found, skipped
+
+
+def _stats(values: list[float]) -> tuple[float, float, float, float]:
+    arr = np.asarray(values, dtype=float)
+    mean = float(arr.mean())
+    if len(arr) < 2:
+        return mean, 0.0, mean, mean
+    std = float(arr.std(ddof=1))
+    half = _T95.get(len(arr) - 1, 1.96) * std / math.sqrt(len(arr))
+    return mean, std, mean - half, mean + half
+
+
+def _published(task: str, method: str, config: str, metric: str):
+    """(value, source) of the study for this row, if it reports one."""
+    if task == "darwin_walk" and method == "cem" and metric == "best_distance_m":
+        entry = published.TABLE6_3.get(config)
+        if entry:
+            return entry[0], f"{published.SOURCE} ({entry[2]}; u.d.)"
+    if task == "crawler_walk" and metric == "displacement_m" and method in published.CRAWLER:
+        value, source = published.CRAWLER[method]
+        return value, source
+    if task == "tokic" and metric == "cycle_length":
+        return 6, "thesis Sec. 4.1.7, Fig. 4.3 (CR-1)"
+    return None, ""
+
+
+def leaderboard_rows(found: list[dict]) -> list[dict]:
+    groups = defaultdict(list)
+    for run in found:
+        groups[(run["task"], run["method"], run["config"])].append(run["summary"])
+    rows = []
+    for (task, method, config), summaries in sorted(groups.items()):
+        for metric, unit, higher in METRICS.get(task, []):
+            values = [
+                s[metric]
+                for s in summaries
+                if isinstance(s.get(metric), (int, float, bool)) and s.get(metric) is not None
+            ]
+            values = [float(v) for v in values if not isinstance(v, float) or math.isfinite(v)]
+            if not values:
+                continue
+            mean, std, low, high = _stats(values)
+            pub, source = _published(task, method, config, metric)
+            ratio = mean / pub if pub not in (None, 0) else None
+            rows.append(
+                {
+                    "task": task,
+                    "method": method,
+                    "config": config,
+                    "metric": metric,
+                    "unit": unit,
+                    "n": len(values),
+                    "mean": mean,
+                    "std": std,
+                    "ci95_low": low,
+                    "ci95_high": high,
+                    "best": max(values) if higher else min(values),
+                    "published": "" if pub is None else pub,
+                    "published_source": source,
+                    "ratio_to_published": "" if ratio is None else ratio,
+                    "beats_published": ""
+                    if pub is None
+                    else (mean > pub if higher else mean < pub),
+                }
+            )
+    return rows
+
+
+def _carried_claims(root: str) -> list[dict]:
+    claims = []
+    for dirpath, _, filenames in os.walk(root):
+        if "pole_claims.csv" in filenames:
+            with open(os.path.join(dirpath, "pole_claims.csv"), encoding="utf-8") as f:
+                for row in csv.DictReader(f):
+                    claims.append({k: row.get(k, "") for k in CLAIM_FIELDS})
+    return claims
+
+
+def claim_rows(found: list[dict], root: str) -> list[dict]:
+    """The claims the runs can speak to, and the rest as untested."""
+    by = defaultdict(list)
+    for run in found:
+        by[(run["task"], run["method"], run["config"])].append(run["summary"])
+    claims = {c["claim_id"]: c for c in _carried_claims(root)}
+
+    def put(cid, evidence, holds):
+        claims[cid] = {
+            "claim_id": cid,
+            "statement": published.CLAIMS[cid],
+            "evidence": evidence,
+            "holds": "yes" if holds else "no",
+        }
+
+    tokic = [
+        s
+        for (t, m, _), ss in by.items()
+        if t == "tokic" and m == "value_iteration"
+        for s in ss
+        if s.get("converged")
+    ]
+    if tokic:
+        lengths = [s["cycle_length"] for s in tokic]
+        put(
+            "CR-1",
+            f"value iteration on tokic (γ 0.9, converged): cycle lengths {lengths}",
+            all(n == 6 for n in lengths),
+        )
+    elite = {}
+    for noise in ("0", "0.8"):
+        means = {
+            e: np.mean(
+                [
+                    s["best_distance_m"]
+                    for s in by.get(("darwin_walk", "cem", f"K10_n{noise}_e{e}"), [])
+                ]
+                or [np.nan]
+            )
+            for e in (1, 2, 3, 4)
+        }
+        if not all(np.isnan(v) for v in means.values()):
+            elite[noise] = means
+    if elite:
+        winners = {
+            n: max(m, key=lambda e: -np.inf if np.isnan(m[e]) else m[e]) for n, m in elite.items()
+        }
+        put(
+            "CEM-N37",
+            "best elite size by mean best distance, K 10: "
+            + ", ".join(f"noise {n}: elite {w} ({elite[n][w]:.3f} m)" for n, w in winners.items()),
+            all(w == 2 for w in winners.values()),
+        )
+    ref = by.get(("darwin_walk", "cem", "K10_n0.8_e2"), [])
+    for cid, cfg in (("CEM-N32", "K10_n1_e2"), ("CEM-N33", "K10_n0.2_e2")):
+        other = by.get(("darwin_walk", "cem", cfg), [])
+        if ref and other:
+            a = np.mean([s["best_distance_m"] for s in ref])
+            b = np.mean([s["best_distance_m"] for s in other])
+            put(cid, f"mean best distance {cfg}: {b:.3f} m vs noise 0.8: {a:.3f} m", b < a)
+    nofix = by.get(("darwin_balance", "nac", "nofix"), [])
+    fixes = by.get(("darwin_balance", "nac", "fixes"), [])
+    if nofix:
+        norms = [s["theta_norm_max"] for s in nofix]
+        put(
+            "NAC-1",
+            f"no normalisation, no ridge: max |θ| median {np.median(norms):.3g}, "
+            f"diverged {sum(s['diverged'] for s in nofix)}/{len(nofix)}",
+            sum(s["diverged"] for s in nofix) > len(nofix) / 2,
+        )
+    if fixes:
+        delta = [
+            s["reward_after"] - s["reward_before"]
+            for s in fixes
+            if s.get("reward_after") is not None
+        ]
+        if delta:
+            mean, _, low, high = _stats(delta)
+            put(
+                "NAC-3",
+                f"normalisation + ridge: reward change {mean:+.5f} m/step, 95% CI "
+                f"({low:+.5f}, {high:+.5f}) over {len(delta)} seeds",
+                low <= 0.0 <= high,
+            )
+    for cid, statement in published.CLAIMS.items():
+        claims.setdefault(
+            cid, {"claim_id": cid, "statement": statement, "evidence": "", "holds": "untested"}
+        )
+    return sorted(claims.values(), key=lambda c: c["claim_id"])
+
+
+def _write_csv(path: str, rows: list[dict], fields: list[str]) -> None:
+    tmp = path + ".tmp"
+    with open(tmp, "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(rows)
+    os.replace(tmp, path)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", required=True, help="root of the run directories")
+    parser.add_argument("--out", default="leaderboard.csv", help="leaderboard CSV path")
+    args = parser.parse_args(argv)
+    if not os.path.isdir(args.runs):
+        print(f"error: --runs {args.runs} is not a directory", file=sys.stderr)
+        return 2
+    found, skipped = find_runs(args.runs)
+    rows = leaderboard_rows(found)
+    claims = claim_rows(found, args.runs)
+    out_dir = os.path.dirname(os.path.abspath(args.out))
+    os.makedirs(out_dir, exist_ok=True)
+    _write_csv(args.out, rows, LEADERBOARD_FIELDS)
+    _write_csv(os.path.join(out_dir, "claims.csv"), claims, CLAIM_FIELDS)
+    for line in skipped:
+        print(f"skipped: {line}", file=sys.stderr)
+    judged = sum(c["holds"] != "untested" for c in claims)
+    print(
+        f"{len(found)} runs, {len(rows)} leaderboard rows -> {args.out}; {len(claims)} claims "
+        f"({judged} judged) -> {os.path.join(out_dir, 'claims.csv')}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

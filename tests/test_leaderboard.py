@@ -1,0 +1,69 @@
+"""analysis.leaderboard: rows, published values, claims, and bad run files."""
+
+import csv
+import json
+
+from analysis import leaderboard, published
+
+
+def _run(root, method, task, name, summary):
+    path = root / method / task / name
+    path.mkdir(parents=True)
+    (path / "summary.json").write_text(json.dumps(summary))
+
+
+def _read(path):
+    with open(path, encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+def test_leaderboard_and_claims(tmp_path, capsys):
+    runs = tmp_path / "runs"
+    for seed, best in enumerate((2.0, 3.0)):
+        _run(
+            runs,
+            "cem",
+            "darwin_walk",
+            f"K50_n0.8_e2_seed{seed}",
+            {"best_distance_m": best, "final_mean_distance_m": best - 0.5},
+        )
+    for seed in range(3):
+        _run(
+            runs,
+            "value_iteration",
+            "tokic",
+            f"seed{seed}",
+            {"cycle_reward": 53.0, "cycle_length": 6, "converged": True},
+        )
+    (runs / "cem" / "darwin_walk" / "broken_seed0").mkdir()
+    (runs / "cem" / "darwin_walk" / "broken_seed0" / "summary.json").write_text("[1, 2")
+    (runs / "pole_claims.csv").write_text(
+        "claim_id,statement,rule,evidence,holds\nPB-8,two actions fail,r,e,yes\n"
+    )
+    out = tmp_path / "out" / "leaderboard.csv"
+    assert leaderboard.main(["--runs", str(runs), "--out", str(out)]) == 0
+    rows = _read(out)
+    assert list(rows[0]) == leaderboard.LEADERBOARD_FIELDS
+    k50 = [r for r in rows if r["config"] == "K50_n0.8_e2" and r["metric"] == "best_distance_m"][0]
+    assert k50["n"] == "2" and float(k50["mean"]) == 2.5 and float(k50["best"]) == 3.0
+    assert float(k50["published"]) == published.TABLE6_3["K50_n0.8_e2"][0]
+    assert k50["beats_published"] == "True" and "CEM-N25" in k50["published_source"]
+    claims = {c["claim_id"]: c for c in _read(out.parent / "claims.csv")}
+    assert claims["CR-1"]["holds"] == "yes"
+    assert claims["PB-8"]["holds"] == "yes"  # carried over from pole_claims.csv
+    assert claims["NAC-3"]["holds"] == "untested"
+    assert set(published.CLAIMS) <= set(claims)
+    err = capsys.readouterr().err
+    assert "broken_seed0" in err
+
+
+def test_missing_runs_directory(tmp_path, capsys):
+    assert leaderboard.main(["--runs", str(tmp_path / "nope")]) == 2
+    assert "not a directory" in capsys.readouterr().err
+
+
+def test_published_data_is_complete():
+    assert len(published.NUMBERS) == 108
+    assert published.NUMBERS["CEM-N25"]["value"] == "1.782815"
+    assert "6 states" in published.CLAIMS["CR-1"]
+    assert all(row["source"] for row in published.NUMBERS.values())
