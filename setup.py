@@ -56,6 +56,7 @@ setup(
             "cma>=3.3,<5",
             "gymnasium>=1.0,<2",
             "shimmy[dm-control]>=2.0,<3",
+            "matplotlib>=3.7,<4",
         ],
         "plots": [
             "matplotlib>=3.7,<4",

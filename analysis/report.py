@@ -1,0 +1,317 @@
+r"""Figures of the study's kinds and a markdown report, from run directories.
+
+  python -m analysis.report --runs=DIR --out=DIR
+
+Writes into `--out` (PNG, matplotlib; `pip install 'cpg-suite[plots]'`):
+  * `cem_rounds.png` — best and mean-vector distance per round, rounds with falls marked,
+    one panel per CEM/CMA-ES configuration (thesis Fig. 6.2-6.6);
+  * `joint_trajectories.png` — hip, knee and ankle pitch of both legs over two strides,
+    hand-tuned gait vs the best gait found (thesis Fig. 6.9);
+  * `rms_error.png` — RMS error of the values per move, real-time crawler learners (Fig. 4.6);
+  * `pole_angles.png` — pole angle traces: 0.5 N vs 4 N, and the α sweep (Fig. 4.9-4.10);
+  * `value_evolution.png` — values of the six cycle states, value vs policy iteration
+    (Fig. 4.4), from `fig4_4.csv`;
+and `report.md` embedding the figures, the leaderboard and the claims table (computed with
+`analysis.leaderboard` into the same folder). Figures whose data are missing are skipped
+and listed in the report; malformed run files are skipped, never a crash.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import sys
+from collections import defaultdict
+
+import numpy as np
+
+from analysis import leaderboard
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _read_csv(path: str) -> list[dict]:
+    try:
+        with open(path, encoding="utf-8") as f:
+            return list(csv.DictReader(f))
+    except (OSError, csv.Error):
+        return []
+
+
+def cem_rounds(found: list[dict], out: str) -> str | None:
+    """Best and mean-vector distance per round with falls marked, first seed per config."""
+    panels = {}
+    for run in sorted(found, key=lambda r: (r["method"], r["config"], r["seed"] or 0)):
+        if run["method"] in ("cem", "cmaes") and run["task"] == "darwin_walk":
+            key = f"{run['method']} {run['config']}"
+            if key not in panels:
+                rows = _read_csv(os.path.join(run["dir"], "progress.csv"))
+                if rows:
+                    panels[key] = rows
+    if not panels:
+        return None
+    plt = _plt()
+    cols = min(4, len(panels))
+    nrows = int(np.ceil(len(panels) / cols))
+    fig, axes = plt.subplots(nrows, cols, figsize=(4 * cols, 3 * nrows), squeeze=False)
+    for ax, (name, rows) in zip(axes.flat, panels.items()):
+        r = np.array([int(x["round"]) for x in rows])
+        best = np.array([float(x["best_distance_m"]) for x in rows])
+        mean = np.array([float(x["mean_distance_m"]) for x in rows])
+        fell = np.array([int(x["mean_fell"]) for x in rows]) > 0
+        ax.plot(r, best, label="best sample", color="tab:blue")
+        ax.plot(r, mean, label="mean vector", color="tab:orange")
+        ax.scatter(r[fell], mean[fell], marker="x", color="red", label="mean vector fell", zorder=3)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("round")
+        ax.set_ylabel("distance (m)")
+    for ax in list(axes.flat)[len(panels) :]:
+        ax.axis("off")
+    axes.flat[0].legend(fontsize=7)
+    fig.tight_layout()
+    path = os.path.join(out, "cem_rounds.png")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def joint_trajectories(found: list[dict], out: str) -> str | None:
+    """Hip, knee and ankle pitch (deg) of both legs, hand-tuned vs the best CEM gait."""
+    best, best_distance = None, -np.inf
+    for run in found:
+        if run["method"] in ("cem", "cmaes") and run["task"] == "darwin_walk":
+            d = run["summary"].get("best_distance_m")
+            path = os.path.join(run["dir"], "best_params.json")
+            if isinstance(d, (int, float)) and d > best_distance and os.path.exists(path):
+                best, best_distance = path, d
+    if best is None:
+        return None
+    from cpg_suite import cpg
+
+    try:
+        found_amps = cpg.load_amplitudes(best)
+    except (ValueError, OSError, json.JSONDecodeError):
+        return None
+    dt, steps = 0.016, 1000
+    plt = _plt()
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+    t = np.arange(steps) * dt
+    window = (t >= 8.0) & (t <= 8.0 + 2 * cpg.CPGConfig().stride_period)
+    for label, amps, style in (
+        ("hand-tuned", cpg.amplitudes_from("hand_tuned"), "--"),
+        (f"best ({best_distance:.2f} m)", found_amps, "-"),
+    ):
+        z = cpg.to_anatomical(cpg.trajectories(amps, steps, dt)[0])
+        for ax, joint, name in zip(
+            axes, (cpg.HPITCH, cpg.KNEE, cpg.APITCH), ("hip pitch", "knee", "ankle pitch")
+        ):
+            ax.plot(t[window], z[window, joint], style, color="tab:blue", label=f"left, {label}")
+            ax.plot(
+                t[window], z[window, 6 + joint], style, color="tab:red", label=f"right, {label}"
+            )
+            ax.set_ylabel(f"{name} (deg)")
+    axes[0].legend(fontsize=7, ncol=2)
+    axes[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    path = os.path.join(out, "joint_trajectories.png")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def rms_error(found: list[dict], out: str) -> str | None:
+    """Mean RMS error per move of each real-time crawler learner (its default config)."""
+    curves = defaultdict(list)
+    for run in found:
+        if run["task"] == "crawler_walk" and run["config"] == run["method"]:
+            rows = _read_csv(os.path.join(run["dir"], "progress.csv"))
+            if rows and "rms" in rows[0]:
+                curves[run["method"]].append([float(r["rms"]) for r in rows])
+    if not curves:
+        return None
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for method, series in sorted(curves.items()):
+        n = min(len(s) for s in series)
+        ax.plot(
+            np.arange(1, n + 1),
+            np.mean([s[:n] for s in series], axis=0),
+            label=f"{method} ({len(series)} seeds)",
+        )
+    ax.set_yscale("symlog", linthresh=1e-3)
+    ax.set_xlabel("move")
+    ax.set_ylabel("RMS error of the values (m)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path = os.path.join(out, "rms_error.png")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def pole_angles(found: list[dict], out: str) -> str | None:
+    """Angle traces of seed 0: the force pair and the α sweep."""
+    traces = {}
+    for run in found:
+        if run["task"] == "pole_balance" and run["seed"] == 0:
+            path = os.path.join(run["dir"], "angles.npy")
+            if os.path.exists(path):
+                try:
+                    traces[run["config"]] = np.load(path)
+                except (OSError, ValueError):
+                    continue
+    panels = [
+        ("force: 0.5 N vs 4 N (5000 steps)", ["force0.5_short", "force4_short"]),
+        ("α sweep (20000 steps)", ["alpha0", "base", "alpha0.1", "alpha0.5", "alpha1"]),
+    ]
+    panels = [(title, [c for c in configs if c in traces]) for title, configs in panels]
+    panels = [p for p in panels if p[1]]
+    if not panels:
+        return None
+    plt = _plt()
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 3.2 * len(panels)), squeeze=False)
+    labels = {
+        "base": "α 0.01",
+        "alpha0": "α 0",
+        "alpha0.1": "α 0.1",
+        "alpha0.5": "α 0.5",
+        "alpha1": "α 1",
+        "force0.5_short": "0.5 N",
+        "force4_short": "4 N",
+    }
+    for ax, (title, configs) in zip(axes[:, 0], panels):
+        for config in configs:
+            faint = config == "alpha0"  # it never learns: keep it from hiding the others
+            ax.plot(
+                np.abs(traces[config]),
+                linewidth=0.6,
+                alpha=0.25 if faint else 0.9,
+                label=labels.get(config, config),
+            )
+        ax.set_title(title, fontsize=9)
+        ax.set_ylabel("|angle| (rad)")
+        ax.set_ylim(0, 1.7)
+        ax.legend(fontsize=7, ncol=5)
+    axes[-1, 0].set_xlabel("step (20 ms)")
+    fig.tight_layout()
+    path = os.path.join(out, "pole_angles.png")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def value_evolution(root: str, out: str) -> str | None:
+    """Values of the six cycle states per iteration, value vs policy iteration."""
+    rows = []
+    for dirpath, _, files in os.walk(root):
+        if "fig4_4.csv" in files:
+            rows = _read_csv(os.path.join(dirpath, "fig4_4.csv"))
+            break
+    if not rows:
+        return None
+    plt = _plt()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True)
+    for ax, method in zip(axes, ("value_iteration", "policy_iteration")):
+        series = defaultdict(list)
+        for r in rows:
+            if r["method"] == method:
+                series[r["state"]].append((int(r["iteration"]), float(r["value"])))
+        for state, points in series.items():
+            points.sort()
+            ax.plot([p[0] for p in points], [p[1] for p in points], label=state)
+        ax.set_title(method.replace("_", " "), fontsize=9)
+        ax.set_xlabel("iteration")
+    axes[0].set_ylabel("V(s)")
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    path = os.path.join(out, "value_evolution.png")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _markdown_table(rows: list[dict], fields: list[str]) -> str:
+    def cell(v):
+        if isinstance(v, float):
+            return f"{v:.4g}"
+        return str(v).replace("|", "/").replace("\n", " ")
+
+    lines = ["| " + " | ".join(fields) + " |", "|" + "---|" * len(fields)]
+    lines += ["| " + " | ".join(cell(r.get(f, "")) for f in fields) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", required=True, help="root of the run directories")
+    parser.add_argument("--out", required=True, help="output folder")
+    args = parser.parse_args(argv)
+    if not os.path.isdir(args.runs):
+        print(f"error: --runs {args.runs} is not a directory", file=sys.stderr)
+        return 2
+    try:
+        _plt()
+    except ImportError:
+        print("error: the report needs matplotlib: pip install 'cpg-suite[plots]'", file=sys.stderr)
+        return 2
+    os.makedirs(args.out, exist_ok=True)
+    found, skipped = leaderboard.find_runs(args.runs)
+    rows = leaderboard.leaderboard_rows(found)
+    claims = leaderboard.claim_rows(found, args.runs)
+    figures = [
+        ("CEM rounds (thesis Fig. 6.2-6.6)", cem_rounds(found, args.out)),
+        (
+            "Joint trajectories, hand-tuned vs best gait (Fig. 6.9)",
+            joint_trajectories(found, args.out),
+        ),
+        ("RMS error of real-time crawler learners (Fig. 4.6)", rms_error(found, args.out)),
+        ("Pole angle traces (Fig. 4.9-4.10)", pole_angles(found, args.out)),
+        ("Value vs policy iteration on tokic (Fig. 4.4)", value_evolution(args.runs, args.out)),
+    ]
+    lines = ["# cpg_suite report", "", f"Runs: `{args.runs}` ({len(found)} runs).", ""]
+    for title, path in figures:
+        lines += [f"## {title}", ""]
+        lines += [f"![{title}]({os.path.basename(path)})" if path else "(no data)", ""]
+    lines += [
+        "## Leaderboard",
+        "",
+        _markdown_table(rows, leaderboard.LEADERBOARD_FIELDS),
+        "",
+        "## Claims",
+        "",
+        _markdown_table([c for c in claims if c["holds"] != "untested"], leaderboard.CLAIM_FIELDS),
+        "",
+        f"{sum(c['holds'] == 'untested' for c in claims)} further claims untested "
+        "by these runs (see claims.csv).",
+        "",
+    ]
+    if skipped:
+        lines += ["## Skipped run files", ""] + [f"- {s}" for s in skipped] + [""]
+    with open(os.path.join(args.out, "report.md"), "w", encoding="utf-8") as f:
+        f.write("\n".join(lines))
+    leaderboard._write_csv(
+        os.path.join(args.out, "leaderboard.csv"),
+        rows,
+        leaderboard.LEADERBOARD_FIELDS,
+    )
+    leaderboard._write_csv(
+        os.path.join(args.out, "claims.csv"),
+        claims,
+        leaderboard.CLAIM_FIELDS,
+    )
+    made = [p for _, p in figures if p]
+    print(f"{len(made)} figures, report.md, leaderboard.csv, claims.csv -> {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

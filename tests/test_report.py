@@ -1,0 +1,64 @@
+"""analysis.report: figures and report.md from a small run tree."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib")
+
+from analysis import report
+from baselines import cem
+from baselines.tabular import runner
+
+
+def test_report_from_small_runs(tmp_path):
+    runs = tmp_path / "runs"
+    cem.run_cem(
+        {
+            "task": "darwin_walk",
+            "population": 3,
+            "elite": 1,
+            "noise": 0.8,
+            "rounds": 2,
+            "seed": 0,
+            "trial_steps": 60,
+            "eval_seeds": 1,
+            "fall_penalty": 10.0,
+            "lateral_penalty": 0.0,
+            "output_dir": str(runs),
+            "run_name": "K3_n0.8_e1_seed0",
+        },
+        log=lambda line: None,
+    )
+    runner.execute(
+        {
+            "task": "pole_balance",
+            "algo": "q_learning",
+            "steps": 300,
+            "output_dir": str(runs),
+            "run_name": "base_seed0",
+            "seed": 0,
+        }
+    )
+    runner.execute(
+        {
+            "task": "crawler_walk",
+            "algo": "value_iteration",
+            "realtime": True,
+            "steps": 300,
+            "output_dir": str(runs),
+            "run_name": "value_iteration_seed0",
+            "seed": 0,
+        }
+    )
+    bad = runs / "cem" / "darwin_walk" / "junk_seed9"
+    bad.mkdir()
+    (bad / "summary.json").write_text("nope")
+    out = tmp_path / "report"
+    assert report.main(["--runs", str(runs), "--out", str(out)]) == 0
+    text = (out / "report.md").read_text()
+    for name in ("cem_rounds.png", "joint_trajectories.png", "rms_error.png", "pole_angles.png"):
+        assert (out / name).stat().st_size > 5000
+        assert f"({name})" in text
+    assert "junk_seed9" in text  # listed as skipped
+    assert (out / "leaderboard.csv").exists() and (out / "claims.csv").exists()
+    assert np.isfinite(float((out / "leaderboard.csv").read_text().splitlines()[1].split(",")[6]))
