@@ -64,7 +64,6 @@ BASE = {
     "accuracy_angle": 10.0,
     "check_every": 50,
     "fall_penalty": 1.0,
-    "eval_seeds": 5,
     "overwrite": False,
 }
 
@@ -88,7 +87,8 @@ def main(argv):
         "# NAC on the DMP term: the study's finding and the reward hypothesis",
         "",
         f"{_STEPS.value} learning steps per run; rewards are per control step, evaluated "
-        "with u = F over 5 initial states (seeds 100-104); Δ = after − before, paired "
+        f"with u = F over {nac._EVAL_SEEDS.value} initial states (seeds 100 on); "
+        "Δ = after − before, paired "
         "by run, 95 % t-interval over seeds.",
         "",
         "| configuration | task | reward before | reward after | Δ (95 % CI) | "
@@ -102,6 +102,7 @@ def main(argv):
                 **BASE,
                 **config,
                 "steps": _STEPS.value,
+                "eval_seeds": nac._EVAL_SEEDS.value,
                 "seed": seed,
                 "output_dir": out,
                 "run_name": f"{name}_seed{seed}",

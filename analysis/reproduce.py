@@ -1,0 +1,157 @@
+r"""Reproduce the study's experiments in one command, then the leaderboard, claims and report.
+
+  python -m analysis.reproduce --quick --out=DIR     # every experiment, small (minutes)
+  python -m analysis.reproduce --full --out=DIR      # the real thing (hours on 2 cores)
+
+Runs, as separate processes, into `DIR/runs/`:
+  1. value iteration on the Tokic model (thesis Tables A.2/A.3, CR-1);
+  2. the pole-balancing claims experiment (`baselines.pole_claims`);
+  3. the crawler experiments (`baselines.crawler_experiments`);
+  4. the CEM settings of thesis Table 6.3 (`baselines.cem --grid=table6_3`), 5 seeds for
+     K = 50 in `--full`;
+  5. CMA-ES at the K = 50 budget (`baselines.cmaes`);
+  6. the NAC finding and reward-hypothesis test (`baselines.nac_experiments`);
+then `analysis.leaderboard` and `analysis.report` into `DIR/`. Every step resumes
+finished runs, so an interrupted `--full` continues where it stopped when run again.
+`--quick` shrinks seeds, rounds, trial lengths and learning steps; its numbers show that
+everything runs and how the outputs look, not the benchmark's results.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+
+QUICK = {
+    "pole": ["--seeds=2", "--steps=6000", "--force_steps=2000"],
+    "crawler": ["--seeds=2", "--moves=300"],
+    "cem": ["--seeds=1", "--rounds=3", "--trial_steps=300"],
+    "cem_k50": None,
+    "cmaes": [["--seed=0", "--population=10", "--rounds=3", "--trial_steps=300"]],
+    "nac": ["--seeds=2", "--steps=500", "--eval_seeds=1"],
+}
+FULL = {
+    "pole": ["--seeds=5"],
+    "crawler": ["--seeds=5"],
+    "cem": ["--seeds=3"],
+    "cem_k50": ["--settings=K50_n0.8_e2", "--seeds=5"],
+    "cmaes": [[f"--seed={s}"] for s in range(3)],
+    "nac": ["--seeds=5"],
+}
+
+
+def _run(args: list[str], log) -> None:
+    command = [sys.executable, "-m", *args]
+    log.write(f"$ {' '.join(command)}\n")
+    log.flush()
+    start = time.perf_counter()
+    result = subprocess.run(command, stdout=log, stderr=subprocess.STDOUT, check=False)
+    log.write(f"# exit {result.returncode} after {time.perf_counter() - start:.0f} s\n")
+    log.flush()
+    if result.returncode != 0:
+        raise RuntimeError(f"{args[0]} failed with exit code {result.returncode}; see the log")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    size = parser.add_mutually_exclusive_group(required=True)
+    size.add_argument("--quick", action="store_true", help="small versions (minutes)")
+    size.add_argument("--full", action="store_true", help="the real experiments (hours)")
+    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument("--threads", type=int, default=2, help="evaluator threads of CEM/CMA-ES")
+    args = parser.parse_args(argv)
+    if args.threads < 1:
+        print(f"error: --threads must be ≥ 1, got {args.threads}", file=sys.stderr)
+        return 2
+    plan = QUICK if args.quick else FULL
+    runs = os.path.join(args.out, "runs")
+    os.makedirs(runs, exist_ok=True)
+    log_path = os.path.join(args.out, "reproduce.log")
+    steps = [
+        (
+            "tokic value iteration",
+            [
+                "baselines.tabular",
+                "--model=tokic",
+                "--algo=value_iteration",
+                f"--output_dir={runs}",
+                "--overwrite",
+            ],
+        ),
+        (
+            "pole claims",
+            ["baselines.pole_claims", f"--output_dir={runs}/pole", "--resume", *plan["pole"]],
+        ),
+        (
+            "crawler experiments",
+            [
+                "baselines.crawler_experiments",
+                f"--output_dir={runs}/crawler",
+                "--resume",
+                *plan["crawler"],
+            ],
+        ),
+        (
+            "CEM, thesis Table 6.3",
+            [
+                "baselines.cem",
+                "--grid=table6_3",
+                f"--output_dir={runs}",
+                f"--threads={args.threads}",
+                "--resume",
+                *plan["cem"],
+            ],
+        ),
+    ]
+    if plan["cem_k50"]:
+        steps.append(
+            (
+                "CEM, K = 50 seeds",
+                [
+                    "baselines.cem",
+                    "--grid=table6_3",
+                    f"--output_dir={runs}",
+                    f"--threads={args.threads}",
+                    "--resume",
+                    *plan["cem_k50"],
+                ],
+            )
+        )
+    for extra in plan["cmaes"]:
+        steps.append(
+            (
+                "CMA-ES",
+                [
+                    "baselines.cmaes",
+                    f"--output_dir={runs}",
+                    f"--threads={args.threads}",
+                    "--resume",
+                    *extra,
+                ],
+            )
+        )
+    steps.append(
+        ("NAC", ["baselines.nac_experiments", f"--output_dir={runs}/nac", "--resume", *plan["nac"]])
+    )
+    start = time.perf_counter()
+    with open(log_path, "a", encoding="utf-8") as log:
+        for i, (title, command) in enumerate(steps, 1):
+            print(f"[{i}/{len(steps)}] {title} ({time.perf_counter() - start:.0f} s)", flush=True)
+            try:
+                _run(command, log)
+            except RuntimeError as e:
+                print(f"error: {e} ({log_path})", file=sys.stderr)
+                return 1
+    from analysis import leaderboard, report
+
+    leaderboard.main(["--runs", runs, "--out", os.path.join(args.out, "leaderboard.csv")])
+    code = report.main(["--runs", runs, "--out", args.out])
+    print(f"done in {time.perf_counter() - start:.0f} s: {args.out}/report.md")
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())
