@@ -11,6 +11,9 @@ Writes into `--out` (PNG, matplotlib; `pip install 'cpg-suite[plots]'`):
   * `pole_angles.png` — pole angle traces: 0.5 N vs 4 N, and the α sweep (Fig. 4.9-4.10);
   * `value_evolution.png` — values of the six cycle states, value vs policy iteration
     (Fig. 4.4), from `fig4_4.csv`;
+  * with `--gaits`: `gaits_filmstrip.png` — the hand-tuned and the best gait side by side,
+    a quarter stride between snapshots (thesis Fig. 6.8), and a video of each
+    (`gait_hand_tuned.mp4`, `gait_best.mp4`; GIF without ffmpeg), rendered headlessly;
 and `report.md` embedding the figures, the leaderboard and the claims table (computed with
 `analysis.leaderboard` into the same folder). Figures whose data are missing are skipped
 and listed in the report; malformed run files are skipped, never a crash.
@@ -239,6 +242,53 @@ def value_evolution(root: str, out: str) -> str | None:
     return path
 
 
+def _best_gait_file(found: list[dict]) -> tuple[str | None, float]:
+    best, best_distance = None, -np.inf
+    for run in found:
+        if run["method"] in ("cem", "cmaes") and run["task"] == "darwin_walk":
+            d = run["summary"].get("best_distance_m")
+            path = os.path.join(run["dir"], "best_params.json")
+            if isinstance(d, (int, float)) and d > best_distance and os.path.exists(path):
+                best, best_distance = path, d
+    return best, best_distance
+
+
+def gaits(found: list[dict], out: str) -> str | None:
+    """Filmstrips of the hand-tuned and the best gait, one above the other, and videos."""
+    path, distance = _best_gait_file(found)
+    if path is None:
+        return None
+    from PIL import Image
+
+    from cpg_suite import cpg, explore
+
+    try:
+        best = cpg.load_amplitudes(path)
+    except (ValueError, OSError, json.JSONDecodeError):
+        return None
+    strips = []
+    for name, amps in (("hand_tuned", cpg.amplitudes_from("hand_tuned")), ("best", best)):
+        frames, times, _ = explore.render_gait(
+            "darwin_walk", amps, cameras=("side",), width=200, height=248
+        )
+        explore.write_video(frames[0], os.path.join(out, f"gait_{name}"), 1 / (0.016 * 2))
+        label = "hand-tuned" if name == "hand_tuned" else f"best, {distance:.2f} m"
+        strips.append(
+            explore.filmstrip(
+                frames[0], times, 8, label, start=8.0, step=cpg.CPGConfig().stride_period / 4
+            )
+        )
+    width = max(s.width for s in strips)
+    sheet = Image.new("RGB", (width, sum(s.height for s in strips)), (20, 22, 26))
+    y = 0
+    for strip in strips:
+        sheet.paste(strip, (0, y))
+        y += strip.height
+    target = os.path.join(out, "gaits_filmstrip.png")
+    sheet.save(target)
+    return target
+
+
 def _markdown_table(rows: list[dict], fields: list[str]) -> str:
     def cell(v):
         if isinstance(v, float):
@@ -254,6 +304,11 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", required=True, help="root of the run directories")
     parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument(
+        "--gaits",
+        action="store_true",
+        help="also render the hand-tuned and the best gait (needs EGL)",
+    )
     args = parser.parse_args(argv)
     if not os.path.isdir(args.runs):
         print(f"error: --runs {args.runs} is not a directory", file=sys.stderr)
@@ -277,6 +332,13 @@ def main(argv=None) -> int:
         ("Pole angle traces (Fig. 4.9-4.10)", pole_angles(found, args.out)),
         ("Value vs policy iteration on tokic (Fig. 4.4)", value_evolution(args.runs, args.out)),
     ]
+    if args.gaits:
+        figures.append(
+            (
+                "Hand-tuned (top) and best gait (bottom), side view (Fig. 6.8)",
+                gaits(found, args.out),
+            )
+        )
     lines = ["# cpg_suite report", "", f"Runs: `{args.runs}` ({len(found)} runs).", ""]
     for title, path in figures:
         lines += [f"## {title}", ""]
