@@ -11,7 +11,8 @@ Runs, as separate processes, into `DIR/runs/`:
      K = 50 in `--full`;
   5. CMA-ES at the K = 50 budget (`baselines.cmaes`);
   6. the NAC finding and reward-hypothesis test (`baselines.nac_experiments`);
-then `analysis.leaderboard` and `analysis.report` into `DIR/`. Every step resumes
+then `analysis.leaderboard` and `analysis.report` into `DIR/` (with the rendered gaits in
+`--full`, or with `--gaits`). Every step resumes
 finished runs, so an interrupted `--full` continues where it stopped when run again.
 `--quick` shrinks seeds, rounds, trial lengths and learning steps; its numbers show that
 everything runs and how the outputs look, not the benchmark's results.
@@ -62,6 +63,12 @@ def main(argv=None) -> int:
     size.add_argument("--full", action="store_true", help="the real experiments (hours)")
     parser.add_argument("--out", required=True, help="output folder")
     parser.add_argument("--threads", type=int, default=2, help="evaluator threads of CEM/CMA-ES")
+    parser.add_argument(
+        "--gaits",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="render the hand-tuned and best gaits (default: with --full)",
+    )
     args = parser.parse_args(argv)
     if args.threads < 1:
         print(f"error: --threads must be ≥ 1, got {args.threads}", file=sys.stderr)
@@ -148,7 +155,8 @@ def main(argv=None) -> int:
     from analysis import leaderboard, report
 
     leaderboard.main(["--runs", runs, "--out", os.path.join(args.out, "leaderboard.csv")])
-    code = report.main(["--runs", runs, "--out", args.out])
+    gaits = args.full if args.gaits is None else args.gaits
+    code = report.main(["--runs", runs, "--out", args.out] + (["--gaits"] if gaits else []))
     print(f"done in {time.perf_counter() - start:.0f} s: {args.out}/report.md")
     return code
 
