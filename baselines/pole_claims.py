@@ -373,9 +373,10 @@ def _markdown(claims: list[dict], agg: pd.DataFrame) -> str:
         "|---|---|---|---|---|",
     ]
     for c in claims:
-        lines.append(
-            f"| {c['claim_id']} | {c['statement']} | {c['holds']} | {c['rule']} | {c['evidence']} |"
-        )
+        cells = [
+            c[k].replace("|", "\\|") for k in ("claim_id", "statement", "holds", "rule", "evidence")
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
     lines += [
         "",
         "## Settings",
