@@ -30,21 +30,9 @@ from collections import defaultdict
 import numpy as np
 
 from analysis import published
+from baselines.stats import mean_std_ci95
 
 _SEED = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
-_T95 = {
-    1: 12.706,
-    2: 4.303,
-    3: 3.182,
-    4: 2.776,
-    5: 2.571,
-    6: 2.447,
-    7: 2.365,
-    8: 2.306,
-    9: 2.262,
-    10: 2.228,
-}
-
 # (method, task) -> [(metric key in summary.json, unit, higher is better)].
 METRICS = {
     "darwin_walk": [("best_distance_m", "m", True), ("final_mean_distance_m", "m", True)],
@@ -114,13 +102,7 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
 
 
 def _stats(values: list[float]) -> tuple[float, float, float, float]:
-    arr = np.asarray(values, dtype=float)
-    mean = float(arr.mean())
-    if len(arr) < 2:
-        return mean, 0.0, mean, mean
-    std = float(arr.std(ddof=1))
-    half = _T95.get(len(arr) - 1, 1.96) * std / math.sqrt(len(arr))
-    return mean, std, mean - half, mean + half
+    return mean_std_ci95(values)
 
 
 def _published(task: str, method: str, config: str, metric: str):

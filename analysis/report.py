@@ -42,6 +42,15 @@ def _plt():
     return plt
 
 
+def _save(plt, fig, out: str, name: str) -> str:
+    """Lays out, writes `out/name` and closes the figure; returns the path."""
+    fig.tight_layout()
+    path = os.path.join(out, name)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def _read_csv(path: str) -> list[dict]:
     try:
         with open(path, encoding="utf-8") as f:
@@ -80,11 +89,7 @@ def cem_rounds(found: list[dict], out: str) -> str | None:
     for ax in list(axes.flat)[len(panels) :]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=7)
-    fig.tight_layout()
-    path = os.path.join(out, "cem_rounds.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, out, "cem_rounds.png")
 
 
 def joint_trajectories(found: list[dict], out: str) -> str | None:
@@ -124,11 +129,7 @@ def joint_trajectories(found: list[dict], out: str) -> str | None:
             ax.set_ylabel(f"{name} (deg)")
     axes[0].legend(fontsize=7, ncol=2)
     axes[-1].set_xlabel("time (s)")
-    fig.tight_layout()
-    path = os.path.join(out, "joint_trajectories.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, out, "joint_trajectories.png")
 
 
 def rms_error(found: list[dict], out: str) -> str | None:
@@ -154,11 +155,7 @@ def rms_error(found: list[dict], out: str) -> str | None:
     ax.set_xlabel("move")
     ax.set_ylabel("RMS error of the values (m)")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    path = os.path.join(out, "rms_error.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, out, "rms_error.png")
 
 
 def pole_angles(found: list[dict], out: str) -> str | None:
@@ -205,11 +202,7 @@ def pole_angles(found: list[dict], out: str) -> str | None:
         ax.set_ylim(0, 1.7)
         ax.legend(fontsize=7, ncol=5)
     axes[-1, 0].set_xlabel("step (20 ms)")
-    fig.tight_layout()
-    path = os.path.join(out, "pole_angles.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, out, "pole_angles.png")
 
 
 def value_evolution(root: str, out: str) -> str | None:
@@ -235,11 +228,7 @@ def value_evolution(root: str, out: str) -> str | None:
         ax.set_xlabel("iteration")
     axes[0].set_ylabel("V(s)")
     axes[0].legend(fontsize=7)
-    fig.tight_layout()
-    path = os.path.join(out, "value_evolution.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, out, "value_evolution.png")
 
 
 def _best_gait_file(found: list[dict]) -> tuple[str | None, float]:

@@ -21,6 +21,7 @@ import numpy as np
 from absl import flags
 
 from baselines import cli, nac, runs
+from baselines.stats import mean_std_ci95
 
 
 # --output_dir and --steps are `baselines.nac`'s flags (imported above), shared here.
@@ -33,20 +34,6 @@ def define_flags() -> None:
     _SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration.")
     _RESUME = flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
 
-
-# Two-sided 95 % Student t quantiles by degrees of freedom.
-_T95 = {
-    1: 12.706,
-    2: 4.303,
-    3: 3.182,
-    4: 2.776,
-    5: 2.571,
-    6: 2.447,
-    7: 2.365,
-    8: 2.306,
-    9: 2.262,
-    10: 2.228,
-}
 
 CONFIGS = {
     "nofix": {"task": "darwin_balance", "normalize": False, "ridge": 0.0},
@@ -70,12 +57,8 @@ BASE = {
 
 def ci95(values) -> tuple[float, float, float]:
     """Mean and the 95 % t-interval of the mean."""
-    values = np.asarray(values, dtype=float)
-    mean = float(values.mean())
-    if len(values) < 2:
-        return mean, mean, mean
-    half = _T95.get(len(values) - 1, 1.96) * values.std(ddof=1) / np.sqrt(len(values))
-    return mean, mean - half, mean + half
+    mean, _, low, high = mean_std_ci95(values)
+    return mean, low, high
 
 
 def main(argv):

@@ -36,6 +36,21 @@ def _read_assets() -> dict[str, bytes]:
 ASSETS = _read_assets()
 
 
+def make_environment(
+    physics,
+    task,
+    time_limit: float,
+    control_timestep: float,
+    environment_kwargs: dict | None = None,
+):
+    """`control.Environment` with the domain's control step unless the caller sets one."""
+    from dm_control.rl import control
+
+    environment_kwargs = dict(environment_kwargs or {})
+    environment_kwargs.setdefault("control_timestep", control_timestep)
+    return control.Environment(physics, task, time_limit=time_limit, **environment_kwargs)
+
+
 def model_and_assets(filename: str) -> tuple[str, dict[str, bytes]]:
     """Returns `(xml_string, assets)` for `Physics.from_xml_string`."""
     return read_model(filename), ASSETS

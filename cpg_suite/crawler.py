@@ -97,9 +97,7 @@ def walk(
     """
     physics = Physics.from_xml_string(*get_model_and_assets())
     task = Walk(stochastic=stochastic, random=random)
-    environment_kwargs = dict(environment_kwargs or {})
-    environment_kwargs.setdefault("control_timestep", _MOVE_TIME)
-    return control.Environment(physics, task, time_limit=time_limit, **environment_kwargs)
+    return base.make_environment(physics, task, time_limit, _MOVE_TIME, environment_kwargs)
 
 
 class Physics(mujoco.Physics):

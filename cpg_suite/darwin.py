@@ -154,9 +154,7 @@ def _environment(
     if servo_gain is not None:
         physics.set_servo_gain(servo_gain)
     task = CPGTask(objective, posture=posture, init_noise=init_noise, random=random)
-    environment_kwargs = dict(environment_kwargs or {})
-    environment_kwargs.setdefault("control_timestep", _CONTROL_TIMESTEP)
-    return control.Environment(physics, task, time_limit=time_limit, **environment_kwargs)
+    return base.make_environment(physics, task, time_limit, _CONTROL_TIMESTEP, environment_kwargs)
 
 
 class Physics(mujoco.Physics):

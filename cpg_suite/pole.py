@@ -106,9 +106,7 @@ def balance_continuous(
 
 
 def _environment(physics, task, time_limit, environment_kwargs) -> control.Environment:
-    environment_kwargs = dict(environment_kwargs or {})
-    environment_kwargs.setdefault("control_timestep", _CONTROL_TIMESTEP)
-    return control.Environment(physics, task, time_limit=time_limit, **environment_kwargs)
+    return base.make_environment(physics, task, time_limit, _CONTROL_TIMESTEP, environment_kwargs)
 
 
 class Physics(mujoco.Physics):
