@@ -94,13 +94,7 @@ def cem_rounds(found: list[dict], out: str) -> str | None:
 
 def joint_trajectories(found: list[dict], out: str) -> str | None:
     """Hip, knee and ankle pitch (deg) of both legs, hand-tuned vs the best CEM gait."""
-    best, best_distance = None, -np.inf
-    for run in found:
-        if run["method"] in ("cem", "cmaes") and run["task"] == "darwin_walk":
-            d = run["summary"].get("best_distance_m")
-            path = os.path.join(run["dir"], "best_params.json")
-            if isinstance(d, (int, float)) and d > best_distance and os.path.exists(path):
-                best, best_distance = path, d
+    best, best_distance = _best_gait_file(found)
     if best is None:
         return None
     from cpg_suite import cpg
