@@ -78,11 +78,14 @@ def cem_rounds(found: list[dict], out: str) -> str | None:
     for ax, (name, rows) in zip(axes.flat, panels.items()):
         r = np.array([int(x["round"]) for x in rows])
         best = np.array([float(x["best_distance_m"]) for x in rows])
-        mean = np.array([float(x["mean_distance_m"]) for x in rows])
-        fell = np.array([int(x["mean_fell"]) for x in rows]) > 0
         ax.plot(r, best, label="best sample", color="tab:blue")
-        ax.plot(r, mean, label="mean vector", color="tab:orange")
-        ax.scatter(r[fell], mean[fell], marker="x", color="red", label="mean vector fell", zorder=3)
+        if all(x["mean_distance_m"] != "" for x in rows):  # CMA-ES has no mean sample
+            mean = np.array([float(x["mean_distance_m"]) for x in rows])
+            fell = np.array([int(x["mean_fell"]) for x in rows]) > 0
+            ax.plot(r, mean, label="mean vector", color="tab:orange")
+            ax.scatter(
+                r[fell], mean[fell], marker="x", color="red", label="mean vector fell", zorder=3
+            )
         ax.set_title(name, fontsize=9)
         ax.set_xlabel("round")
         ax.set_ylabel("distance (m)")

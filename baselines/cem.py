@@ -59,6 +59,8 @@ TABLE6_3 = {
 class CEM:
     """The Cross-Entropy Method of thesis Alg. 6.1 on a Gaussian N(θ, Σ)."""
 
+    first_sample_is_mean = True
+
     def __init__(
         self,
         mean: np.ndarray,

@@ -149,7 +149,8 @@ def run_rounds(
     Args:
       optimizer: Has `ask() -> (K, 11)`, `tell(samples, costs)`, `mean` (the current
         distribution mean), `sigma` (its average standard deviation), `state_dict()` and
-        `load_state_dict(d)`.
+        `load_state_dict(d)`; `first_sample_is_mean = True` when `ask()` puts the current
+        mean first (then its trial is logged as the mean vector's).
       evaluator: The batched evaluator.
       run_dir: The run directory (already created, with config.json).
       rounds: Number of rounds.
@@ -178,6 +179,7 @@ def run_rounds(
         best["cost"] = float(best["cost"])
     # progress.csv is rewritten from the checkpoint's rows: a row written after the last
     # checkpoint (a kill between the two writes) is dropped and recomputed.
+    has_mean = bool(getattr(optimizer, "first_sample_is_mean", False))
     progress = runs.ProgressCSV(progress_path, PROGRESS_FIELDS, truncate=True)
     for row in rows:
         progress.append(row)
@@ -212,8 +214,9 @@ def run_rounds(
                 "best_cost": float(costs[k]),
                 "best_distance_m": float(distance[k]),
                 "best_fell": int(fell[k]),
-                "mean_distance_m": float(distance[0]),
-                "mean_fell": int(fell[0]),
+                # Sample 1 is the current mean for CEM (thesis 6.2); not for CMA-ES.
+                "mean_distance_m": float(distance[0]) if has_mean else "",
+                "mean_fell": int(fell[0]) if has_mean else "",
                 "falls": int(result.fell.sum()),
                 "cost_mean": float(costs.mean()),
                 "sigma": float(optimizer.sigma),
@@ -234,10 +237,15 @@ def run_rounds(
                     "optimizer": optimizer.state_dict(),
                 },
             )
+            mean_text = (
+                f"mean vector {row['mean_distance_m']:+.3f} m"
+                f"{' (fell)' if row['mean_fell'] else ''}  "
+                if has_mean
+                else ""
+            )
             log(
                 f"round {row['round']:3d}  best {row['best_distance_m']:+.3f} m"
-                f"{' (fell)' if row['best_fell'] else ''}  mean vector "
-                f"{row['mean_distance_m']:+.3f} m{' (fell)' if row['mean_fell'] else ''}  "
+                f"{' (fell)' if row['best_fell'] else ''}  {mean_text}"
                 f"falls {row['falls']:2d}/{len(samples) * len(eval_seeds)}  "
                 f"{row['steps_per_s']:,} sim steps/s"
             )
