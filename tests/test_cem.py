@@ -218,6 +218,10 @@ def test_cmaes_runs_resumes_and_is_thread_independent(tmp_path):
     )
     assert _without_wall(full) == _without_wall(two)
     assert full["evaluations"] == 3 * 4 + 1
+    rows = (tmp_path / "a" / "cmaes" / "darwin_walk" / "r" / "progress.csv").read_text()
+    header, first = rows.splitlines()[:2]
+    cells = dict(zip(header.split(","), first.split(",")))
+    assert cells["mean_distance_m"] == ""  # CMA-ES does not sample its mean
 
     def die_after_one(line):
         if line.startswith("round   1"):
