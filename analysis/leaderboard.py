@@ -255,11 +255,76 @@ def claim_rows(found: list[dict], root: str) -> list[dict]:
                 f"({low:+.5f}, {high:+.5f}) over {len(delta)} seeds",
                 low <= 0.0 <= high,
             )
+    crawler_claims(by, put)
     for cid, statement in published.CLAIMS.items():
         claims.setdefault(
             cid, {"claim_id": cid, "statement": statement, "evidence": "", "holds": "untested"}
         )
     return sorted(claims.values(), key=lambda c: c["claim_id"])
+
+
+def crawler_claims(by: dict, put) -> None:
+    """Claims about real-time learning on the crawler, from `crawler_experiments` runs."""
+
+    def runs_of(method, config=None):
+        return by.get(("crawler_walk", method, config or method), [])
+
+    def disp(method, config=None):
+        values = [s["displacement_m"] for s in runs_of(method, config)]
+        return float(np.mean(values)) if values else None
+
+    vi = runs_of("value_iteration")
+    if vi:
+        lengths = [s["cycle_length"] for s in vi]
+        joints = [s["cycle_joints"] for s in vi]
+        put(
+            "CR-11",
+            f"real-time value iteration: cycle lengths {lengths}, joints {joints}",
+            sum(n == 2 and j == 1 for n, j in zip(lengths, joints)) > len(vi) / 2,
+        )
+    learners = ("value_iteration", "q_learning", "sarsa", "sarsa_lambda", "td0", "td_lambda")
+    means = {m: disp(m) for m in learners}
+    if all(v is not None for v in means.values()):
+        text = ", ".join(f"{m} {v:+.3f}" for m, v in means.items())
+        put(
+            "CR-13",
+            f"displacement of the frozen greedy policy over 100 moves (m): {text}",
+            all(v > 0.05 for v in means.values()),
+        )
+        weak = max(means["q_learning"], means["sarsa"], means["sarsa_lambda"])
+        put(
+            "CR-14",
+            f"ordering VI > TD(0) > TD(λ) > Q, SARSA, SARSA(λ) by displacement: {text}",
+            means["value_iteration"] > means["td0"] > means["td_lambda"] > weak,
+        )
+    eps = runs_of("value_iteration", "value_iteration_eps0.1")
+    if eps:
+        found = sum(s["displacement_m"] > 0.05 for s in eps)
+        put(
+            "CR-7",
+            f"constant ε 0.1: forward cycle in {found}/{len(eps)} runs "
+            f"(mean {disp('value_iteration', 'value_iteration_eps0.1'):+.3f} m / 100 moves)",
+            found <= len(eps) / 2,
+        )
+    stochastic = runs_of("value_iteration", "stochastic0.2")
+    if stochastic:
+        found = sum(s["displacement_m"] > 0.05 for s in stochastic)
+        lengths = [s["cycle_length"] for s in stochastic]
+        put(
+            "CR-16",
+            f"moves fail with p 0.2: forward in {found}/{len(stochastic)} runs, "
+            f"cycle lengths {lengths}",
+            found > len(stochastic) / 2 and sum(n == 4 for n in lengths) > len(lengths) / 2,
+        )
+    gathered = runs_of("value_iteration", "explore1000")
+    if gathered and means.get("value_iteration") is not None:
+        g = float(np.mean([s["displacement_m"] for s in gathered]))
+        put(
+            "CR-6",
+            f"model from 1000 random moves then VI: {g:+.3f} m / 100 moves vs real-time "
+            f"VI {means['value_iteration']:+.3f} m (the study: greatly reduced)",
+            g < 0.75 * means["value_iteration"],
+        )
 
 
 def _write_csv(path: str, rows: list[dict], fields: list[str]) -> None:
