@@ -64,6 +64,11 @@ class Task(suite_base.Task):
     its reward into [0, 1] with `reward_to_unit` before the colours are blended.
     """
 
+    def action_spec(self, physics):
+        """The task's own action spec, `self._action_spec` (set by each task)."""
+        del physics
+        return self._action_spec
+
     def reward_to_unit(self, reward: float) -> float:
         """Maps a reward to [0, 1] for colouring (1 = best). Override per task."""
         return float(np.clip(reward, 0.0, 1.0))

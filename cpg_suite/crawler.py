@@ -167,10 +167,6 @@ class Walk(base.Task):
         self._x_before = 0.0
         super().__init__(random=random)
 
-    def action_spec(self, physics):
-        del physics
-        return self._action_spec
-
     def initialize_episode(self, physics: Physics) -> None:
         self.cell = (0, 0)
         self.blocked = self.slipped = False

@@ -438,10 +438,6 @@ class CPGTask(base.Task):
         self._x_before = 0.0
         super().__init__(random=random)
 
-    def action_spec(self, physics):
-        del physics
-        return self._action_spec
-
     def initialize_episode(self, physics: Physics) -> None:
         noise = self.random.uniform(-self.init_noise, self.init_noise, size=12)
         physics.set_standing_pose(self.posture + noise)

@@ -198,10 +198,6 @@ class Balance(base.Task):
         """The force of each discrete action, N (None for the continuous task)."""
         return self._forces.copy() if self._discrete else None
 
-    def action_spec(self, physics):
-        del physics
-        return self._action_spec
-
     def initialize_episode(self, physics: Physics) -> None:
         """Starts near upright at rest: θ ~ U(−0.02, 0.02) rad, cart at 0."""
         physics.reset()
