@@ -24,7 +24,7 @@ in row 2 it found only a one-joint jitter between rows 3 and 4 (+0.1 cm per cycl
 Task `walk` (one control step = one move of 0.6 s, physics step 2 ms):
   * action `DiscreteArray(4)`: 0 up (r − 1), 1 right (c + 1), 2 down (r + 1), 3 left (c − 1);
     each moves one joint to the neighbouring grid angle. A move off the grid leaves the
-    arm where it is (reward ≈ 0) and sets the `blocked` observation;
+    arm where it is, earns reward 0 and sets the `blocked` observation;
   * reward: forward (x) displacement of the chassis during the move, m;
   * `stochastic=p`: with probability p the joint does not move (thesis Sec. 4.1.5);
   * episodes start at cell (0, 0) after the body has settled, and end at the time limit
@@ -201,6 +201,9 @@ class Walk(base.Task):
         return obs
 
     def get_reward(self, physics: Physics) -> float:
+        """Chassis x displacement during the move, m; exactly 0 for a blocked move."""
+        if self.blocked:
+            return 0.0
         return physics.chassis_x() - self._x_before
 
     def reward_to_unit(self, reward: float) -> float:
