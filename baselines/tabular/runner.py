@@ -190,15 +190,12 @@ def run_online_on_model(run_dir: str, settings: dict, model: models.TabularModel
 
 def learned_reward_table(
     states: np.ndarray, actions: np.ndarray, rewards: np.ndarray, model: models.TabularModel
-) -> dict[str, float]:
-    """The latest measured reward of every transition made, keyed like tokic_rewards.json."""
+) -> dict[tuple[tuple[int, int], tuple[int, int]], float]:
+    """The latest measured reward of every transition made: {((r, c), (r2, c2)): reward}."""
     table = {}
     for s, a, r in zip(states.tolist(), actions.tolist(), rewards.tolist()):
-        if not model.allowed[s, a]:
-            continue
-        s2 = model.intended_successor(s, a)
-        (r0, c0), (r1, c1) = model.label(s), model.label(s2)
-        table[f"{r0},{c0}->{r1},{c1}"] = r
+        if model.allowed[s, a]:
+            table[model.label(s), model.label(model.intended_successor(s, a))] = r
     return table
 
 
@@ -256,17 +253,10 @@ def run_crawler(run_dir: str, settings: dict) -> dict:
     displacement = _run_policy(env, learner, to_state, settings["eval_moves"])
 
     rewards = learned_reward_table(result.states, result.actions, result.rewards, grid)
-    reference = planning.value_iteration(
-        models.grid_model(
-            {
-                tuple(tuple(int(v) for v in side.split(",")) for side in k.split("->")): v
-                for k, v in rewards.items()
-            }
-        ),
-        settings["gamma"],
-        tol=1e-10,
-    ).values
+    learned = models.grid_model(rewards, name="crawler_learned")
+    reference = planning.value_iteration(learned, settings["gamma"], tol=1e-10).values
     rms = np.sqrt(np.mean((values - reference) ** 2, axis=1))
+    keyed = {f"{a[0]},{a[1]}->{b[0]},{b[1]}": v for (a, b), v in rewards.items()}
     runs.write_rows_csv(
         os.path.join(run_dir, "progress.csv"),
         [
@@ -283,27 +273,19 @@ def run_crawler(run_dir: str, settings: dict) -> dict:
     )
     runs.write_rows_csv(
         os.path.join(run_dir, "learned_rewards.csv"),
-        [{"transition": k, "reward_m": v} for k, v in sorted(rewards.items())],
+        [{"transition": k, "reward_m": v} for k, v in sorted(keyed.items())],
     )
-    runs.write_json(os.path.join(run_dir, "learned_rewards.json"), {"rewards": rewards})
+    runs.write_json(os.path.join(run_dir, "learned_rewards.json"), {"rewards": keyed})
     runs.save_npy(os.path.join(run_dir, "values_history.npy"), values)
     runs.write_matrix_csv(os.path.join(run_dir, "values.csv"), learner.state_values().reshape(5, 5))
-    cycle = planning.policy_cycle(grid, policy)
+    cycle = planning.policy_cycle(learned, policy)  # its reward: the learned move rewards
     return {
         "moves": settings["steps"],
         "eval_moves": settings["eval_moves"],
         "cycle": [list(grid.label(s)) for s in cycle.states],
         "cycle_length": cycle.length,
         "cycle_joints": _cycle_joints(grid, cycle.states),
-        "cycle_learned_reward_m": float(
-            sum(
-                rewards.get(
-                    f"{grid.label(a)[0]},{grid.label(a)[1]}->{grid.label(b)[0]},{grid.label(b)[1]}",
-                    0.0,
-                )
-                for a, b in zip(cycle.states, cycle.states[1:] + cycle.states[:1])
-            )
-        ),
+        "cycle_learned_reward_m": cycle.reward,
         "displacement_m": displacement,
         "displacement_per_move_m": displacement / max(1, settings["eval_moves"]),
         "learning_displacement_m": float(result.rewards.sum()),
