@@ -123,10 +123,7 @@ class BatchEvaluator:
         physics = self._physics
         targets = cpg.trajectories(amplitudes, self.steps, self.control_timestep, self.config)
         legs = physics.action_to_targets(physics.targets_to_action(targets))
-        ctrl = np.empty(targets.shape[:2] + (self.model.nu,))
-        ctrl[..., physics._leg_act] = legs
-        ctrl[..., physics._arm_act] = darwin.ARM_POSE
-        return ctrl
+        return physics.controls_for(legs)
 
     def _worker(self):
         local = self._local

@@ -26,22 +26,14 @@ continues bit-identically), best_params.json, mean_params.json, summary.json.
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
+
 import numpy as np
 from absl import flags
 
-from baselines import cli, optimize
+from baselines import cli, optimize, portable, progress, runs
 from cpg_suite import cpg
-
-
-def define_flags() -> None:
-    """Defines this module's command-line flags (only when it runs as a program)."""
-    global _ELITE, _NOISE, _GRID, _SEEDS, _SETTINGS
-    _ELITE = flags.DEFINE_integer("elite", 2, "Elite samples kept per round.")
-    _NOISE = flags.DEFINE_float("noise", 0.8, "Variance added to the covariance diagonal, deg².")
-    _GRID = flags.DEFINE_enum("grid", None, ["table6_3"], "Run a whole table of settings.")
-    _SEEDS = flags.DEFINE_integer("seeds", 3, "--grid: seeds per setting (0..N-1).")
-    _SETTINGS = flags.DEFINE_string("settings", None, "--grid: only these settings (comma list).")
-
 
 # Thesis Table 6.3 (K, noise, elite), plus the variants of Sec. 6.3: the lateral penalty
 # and noise 0.2 / 1.0 (K 10, elite 2). Names are run-name prefixes.
@@ -98,19 +90,30 @@ class CEM:
         return float(np.sqrt(np.mean(np.diag(self.cov))))
 
     def ask(self) -> np.ndarray:
-        """1. Sample: the mean, then K − 1 draws from N(θ, Σ)."""
-        draws = self.rng.multivariate_normal(
-            self.mean, self.cov, size=self.population - 1, method="eigh"
-        )
+        """1. Sample: the mean, then K − 1 draws θ + L z from N(θ, Σ), Σ = L Lᵀ.
+
+        The factor L and the product L z use `baselines.portable`, not LAPACK/BLAS, so the
+        samples are the same bits on every CPU (see that module).
+        """
+        factor = portable.cholesky_psd(self.cov)
+        z = self.rng.standard_normal((self.population - 1, len(self.mean)))
+        draws = self.mean + portable.matmul(z, factor.T)
         return np.vstack([self.mean, draws])
 
     def tell(self, samples: np.ndarray, costs: np.ndarray) -> None:
-        """3-4. Select the elite by cost and refit θ and Σ (+ noise on the diagonal)."""
+        """3-4. Select the elite by cost and refit θ and Σ (+ noise on the diagonal).
+
+        A NaN or infinite cost is a failed trial: it sorts after every finite cost.
+        """
+        costs = np.where(np.isfinite(costs), costs, np.inf)
         order = np.argsort(costs, kind="stable")
-        elite = samples[order[: self.elite]]
-        self.mean = elite.mean(axis=0)
+        elite = np.asarray(samples, dtype=np.float64)[order[: self.elite]]
+        weights = np.full(self.elite, 1.0 / self.elite)
+        self.mean = portable.weighted_sum(weights, elite)
         centred = elite - self.mean
-        self.cov = centred.T @ centred / self.elite + self.noise * np.eye(len(self.mean))
+        self.cov = portable.weighted_outer_sum(weights, centred) + self.noise * np.eye(
+            len(self.mean)
+        )
 
     def state_dict(self) -> dict:
         return {
@@ -125,18 +128,65 @@ class CEM:
         self.rng.bit_generator.state = state["rng"]
 
 
-def default_run_name(settings: dict) -> str:
-    lateral = "_lateral" if settings["lateral_penalty"] else ""
+@dataclasses.dataclass(frozen=True)
+class CEMSettings(optimize.OptimizerSettings):
+    """The settings of a CEM run (the shared ones plus elite and noise).
+
+    Attributes:
+      elite: Elite samples kept per round.
+      noise: Variance added to the covariance diagonal each round, deg².
+    """
+
+    elite: int = 2
+    noise: float = 0.8
+
+    def __post_init__(self):
+        super().__post_init__()
+        cli.require(
+            1 <= self.elite <= self.population,
+            f"--elite must lie in [1, --population={self.population}], got {self.elite}",
+        )
+        cli.require(self.noise >= 0, f"--noise must be ≥ 0, got {self.noise}")
+
+
+def default_run_name(settings: CEMSettings) -> str:
+    """`K<population>_n<noise>_e<elite>[_lateral]_seed<seed>`."""
+    lateral = "_lateral" if settings.lateral_penalty else ""
     return (
-        f"K{settings['population']}_n{settings['noise']:g}_e{settings['elite']}{lateral}"
-        f"_seed{settings['seed']}"
+        f"K{settings.population}_n{settings.noise:g}_e{settings.elite}{lateral}_seed{settings.seed}"
     )
 
 
+def grid_jobs(
+    base: CEMSettings, options: runs.RunOptions, names: list[str], seeds: int
+) -> list[tuple[CEMSettings, runs.RunOptions]]:
+    """The runs of a Table 6.3 grid: each named setting × seeds 0..seeds-1.
+
+    Raises:
+      ValueError: On an unknown setting name (the message lists the valid ones).
+    """
+    unknown = [n for n in names if n not in TABLE6_3]
+    cli.require(not unknown, f"unknown --settings {unknown}; valid: {', '.join(TABLE6_3)}")
+    jobs = []
+    for name in names:
+        for seed in range(seeds):
+            fields = {"lateral_penalty": 0.0, **TABLE6_3[name], "seed": seed}
+            settings = dataclasses.replace(base, **fields)
+            jobs.append((settings, dataclasses.replace(options, run_name=f"{name}_seed{seed}")))
+    return jobs
+
+
 def run_cem(
-    settings: dict, threads: int = 2, resume: bool = False, overwrite: bool = False, log=print
+    settings: CEMSettings,
+    options: runs.RunOptions | None = None,
+    log: Callable[[str], None] = progress.write,
 ) -> tuple[str, dict]:
     """Runs one CEM configuration and writes `<output_dir>/cem/<task>/<run_name>/`.
+
+    Args:
+      settings: The run's settings.
+      options: Where and how to run (run name default: `default_run_name(settings)`).
+      log: Receives a line per round.
 
     Returns:
       `(run_dir, summary)`.
@@ -144,49 +194,49 @@ def run_cem(
     Raises:
       runs.RunDirectoryExists, optimize.CheckpointError.
     """
+    options = options or runs.RunOptions()
+    if not options.run_name:
+        options = dataclasses.replace(options, run_name=default_run_name(settings))
     optimizer = CEM(
         cpg.amplitudes_from("hand_tuned"),
-        settings["population"],
-        settings["elite"],
-        settings["noise"],
-        settings["seed"],
+        settings.population,
+        settings.elite,
+        settings.noise,
+        settings.seed,
     )
-    return optimize.run_optimizer(
-        "cem", optimizer, settings, ("elite", "noise"), threads, resume, overwrite, log
-    )
+    return optimize.run_optimizer("cem", optimizer, settings, options, log)
 
 
-def _validate() -> dict:
-    settings = optimize.common_settings()
-    cli.check(
-        1 <= _ELITE.value <= settings["population"],
-        f"--elite must lie in [1, --population={settings['population']}], got {_ELITE.value}",
-    )
-    cli.check(_NOISE.value >= 0, f"--noise must be ≥ 0, got {_NOISE.value}")
-    cli.check(_SEEDS.value >= 1, f"--seeds must be ≥ 1, got {_SEEDS.value}")
-    return {**settings, "elite": _ELITE.value, "noise": _NOISE.value}
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    optimize.define_flags()
+    d = CEMSettings()
+    flags.DEFINE_integer("elite", d.elite, "Elite samples kept per round.")
+    flags.DEFINE_float("noise", d.noise, "Variance added to the covariance diagonal, deg².")
+    flags.DEFINE_enum("grid", None, ["table6_3"], "Run a whole table of settings.")
+    flags.DEFINE_integer("seeds", 3, "--grid: seeds per setting (0..N-1).")
+    flags.DEFINE_string("settings", None, "--grid: only these settings (comma list).")
 
 
 def main(argv):
     del argv
-    base = _validate()
-    if _GRID.value is None:
-        jobs = [{**base, "run_name": base["run_name"] or default_run_name(base)}]
+    settings = cli.settings_from_flags(CEMSettings)
+    options = cli.settings_from_flags(runs.RunOptions)
+    values = flags.FLAGS
+    cli.check(values.seeds >= 1, f"--seeds must be ≥ 1, got {values.seeds}")
+    if values.grid is None:
+        jobs = [(settings, options)]
     else:
         names = list(TABLE6_3)
-        if _SETTINGS.value:
-            names = [n.strip() for n in _SETTINGS.value.split(",") if n.strip()]
-            unknown = [n for n in names if n not in TABLE6_3]
-            cli.check(not unknown, f"unknown --settings {unknown}; valid: {', '.join(TABLE6_3)}")
-        jobs = []
-        for name in names:
-            for seed in range(_SEEDS.value):
-                setting = {**base, "lateral_penalty": 0.0, **TABLE6_3[name], "seed": seed}
-                jobs.append({**setting, "run_name": f"{name}_seed{seed}"})
+        if values.settings:
+            names = [n.strip() for n in values.settings.split(",") if n.strip()]
+        try:
+            jobs = grid_jobs(settings, options, names, values.seeds)
+        except ValueError as e:
+            raise cli.UsageError(str(e)) from None
     optimize.run_jobs(jobs, run_cem)
 
 
 if __name__ == "__main__":
-    optimize.define_flags()
     define_flags()
     cli.run(main)

@@ -7,10 +7,14 @@ checks reject.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from collections.abc import Callable
+from typing import TypeVar
 
 from absl import app, flags
+
+_Settings = TypeVar("_Settings")
 
 
 class UsageError(Exception):
@@ -74,3 +78,37 @@ def parse_seeds(text: str) -> list[int]:
     if any(s < 0 for s in seeds):
         raise UsageError(f"seeds must be ≥ 0, got {text!r}")
     return seeds
+
+
+def settings_from_flags(cls: type[_Settings], **overrides) -> _Settings:
+    """Builds the settings dataclass `cls` from the absl flags named like its fields.
+
+    Each CLI is a thin layer: it defines flags named after the fields of its settings
+    dataclass, and this function collects them; the dataclass validates itself.
+
+    Args:
+      cls: A dataclass whose `__post_init__` raises `ValueError` on invalid values.
+      **overrides: Field values that replace the flags' (e.g. derived defaults).
+
+    Returns:
+      The validated settings.
+
+    Raises:
+      UsageError: With the dataclass's one-line reason.
+    """
+    values = {
+        field.name: flags.FLAGS[field.name].value
+        for field in dataclasses.fields(cls)
+        if field.name in flags.FLAGS
+    }
+    values.update(overrides)
+    try:
+        return cls(**values)
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+
+
+def require(condition: bool, message: str) -> None:
+    """Raises `ValueError(message)` unless `condition` holds (for settings validation)."""
+    if not condition:
+        raise ValueError(message)

@@ -9,16 +9,42 @@ leaves a half-written file behind.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import os
 import platform
+import shlex
 import subprocess
-import sys
 import tempfile
 import time
 
 import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class RunOptions:
+    """Where a run is stored and how it is executed; none of it changes the results.
+
+    Attributes:
+      output_dir: Root of the output tree.
+      run_name: Run directory name (None: the method's default from its settings).
+      threads: Evaluator threads (results are identical for any number).
+      resume: Continue runs from their checkpoints (a finished run is returned as is).
+      overwrite: Replace existing run directories.
+    """
+
+    output_dir: str = "runs"
+    run_name: str | None = None
+    threads: int = 2
+    resume: bool = False
+    overwrite: bool = False
+
+    def __post_init__(self):
+        if self.threads < 1:
+            raise ValueError(f"--threads must be ≥ 1, got {self.threads}")
+        if self.resume and self.overwrite:
+            raise ValueError("--resume and --overwrite exclude each other")
 
 
 class RunDirectoryExists(Exception):
@@ -200,14 +226,45 @@ def environment_record() -> dict:
         "numpy_version": np.__version__,
         "python_version": platform.python_version(),
         "git_commit": _git_commit(),
-        "command": " ".join([os.path.basename(sys.executable), "-m"] + sys.argv),
         "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
 
 
-def write_config(run_dir: str, settings: dict) -> None:
-    """Writes `config.json`: every setting plus `environment_record()`."""
+def _flag_text(name: str, value) -> str | None:
+    if value is None:
+        return None
+    if isinstance(value, bool):
+        return f"--{name}" if value else f"--no{name}"
+    if isinstance(value, (list, tuple)):
+        return f"--{name}={','.join(str(v) for v in value)}"
+    return f"--{name}={value}"
+
+
+def command_line(module: str, settings: dict) -> str:
+    """The shell command that runs `python -m module` with these settings as flags.
+
+    Args:
+      module: The CLI module, e.g. `baselines.cem`.
+      settings: Flag values by flag name (None values are left out).
+
+    Returns:
+      One line, each value quoted for a POSIX shell.
+    """
+    parts = [_flag_text(name, value) for name, value in settings.items()]
+    return shlex.join(["python", "-m", module] + [p for p in parts if p is not None])
+
+
+def write_config(run_dir: str, settings, command: str | None = None) -> None:
+    """Writes `config.json`: every setting, the command that re-runs the run, the versions.
+
+    Args:
+      run_dir: The run directory.
+      settings: A settings dataclass or a dict of settings.
+      command: The command line that re-runs exactly this run (see `command_line`).
+    """
+    if dataclasses.is_dataclass(settings):
+        settings = dataclasses.asdict(settings)
     write_json(
         os.path.join(run_dir, "config.json"),
-        {"settings": settings, "environment": environment_record()},
+        {"settings": settings, "command": command, "environment": environment_record()},
     )

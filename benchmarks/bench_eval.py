@@ -26,7 +26,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from baselines import cem
+from baselines import cem, runs
 from baselines.batch_eval import BatchEvaluator
 from baselines.gait import evaluate_gait
 from cpg_suite import cpg
@@ -95,22 +95,10 @@ def main() -> None:
     )
 
     with tempfile.TemporaryDirectory() as out:
-        settings = {
-            "task": "darwin_walk",
-            "population": 50,
-            "elite": 2,
-            "noise": 0.8,
-            "rounds": args.cem_rounds,
-            "seed": 0,
-            "trial_steps": 1000,
-            "eval_seeds": 1,
-            "fall_penalty": 10.0,
-            "lateral_penalty": 0.0,
-            "output_dir": out,
-            "run_name": "bench",
-        }
+        settings = cem.CEMSettings(rounds=args.cem_rounds)
+        options = runs.RunOptions(output_dir=out, run_name="bench", threads=2)
         start = time.perf_counter()
-        _, summary = cem.run_cem(settings, threads=2, log=lambda line: None)
+        _, summary = cem.run_cem(settings, options, log=lambda line: None)
         wall = time.perf_counter() - start
     ideal = summary["sim_steps"] / raw_rates[2]
     print(

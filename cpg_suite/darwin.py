@@ -49,7 +49,7 @@ from dm_env import specs
 
 from cpg_suite import base, cpg
 
-_CONTROL_TIMESTEP = 0.016  # s: Webots DARwIn-OP basicTimeStep.
+CONTROL_TIMESTEP = 0.016  # s: Webots DARwIn-OP basicTimeStep (the one definition).
 _DEFAULT_TIME_LIMIT = 16.0  # s: 1000 control steps ("1000 timesteps" of the study).
 _FALL_HEIGHT = 0.22  # m: torso origin height below which the robot has fallen.
 _FALL_TILT_COS = float(np.cos(np.deg2rad(50.0)))  # torso z-axis · world z below this: fallen.
@@ -154,7 +154,7 @@ def _environment(
     if servo_gain is not None:
         physics.set_servo_gain(servo_gain)
     task = CPGTask(objective, posture=posture, init_noise=init_noise, random=random)
-    return base.make_environment(physics, task, time_limit, _CONTROL_TIMESTEP, environment_kwargs)
+    return base.make_environment(physics, task, time_limit, CONTROL_TIMESTEP, environment_kwargs)
 
 
 class Physics(mujoco.Physics):
@@ -234,6 +234,21 @@ class Physics(mujoco.Physics):
     def set_arm_targets(self, angles: np.ndarray) -> None:
         """Sets the arm and head servo targets, rad (`ARM_JOINTS` order)."""
         self.data.ctrl[self._arm_act] = angles
+
+    def controls_for(self, leg_targets: np.ndarray) -> np.ndarray:
+        """Actuator controls for leg servo targets, with the arms and head held in `ARM_POSE`.
+
+        Args:
+          leg_targets: (..., 12) leg targets, rad, in `cpg.LEG_JOINTS` order.
+
+        Returns:
+          (..., nu) controls, the values the task writes into `data.ctrl`.
+        """
+        leg_targets = np.asarray(leg_targets, dtype=np.float64)
+        ctrl = np.empty(leg_targets.shape[:-1] + (self.model.nu,))
+        ctrl[..., self._leg_act] = leg_targets
+        ctrl[..., self._arm_act] = ARM_POSE
+        return ctrl
 
     # Torso.
     def torso_position(self) -> np.ndarray:
@@ -473,5 +488,5 @@ class CPGTask(base.Task):
 
     def reward_to_unit(self, reward: float) -> float:
         if self.objective == "walk":
-            return 0.5 + 0.5 * reward / (_WALK_VIZ_SPEED * _CONTROL_TIMESTEP)
+            return 0.5 + 0.5 * reward / (_WALK_VIZ_SPEED * CONTROL_TIMESTEP)
         return 1.0 + reward / _BALANCE_VIZ_DISTANCE

@@ -1,5 +1,6 @@
 """CEM (thesis Alg. 6.1): the update, the toy example, run files, determinism, resume."""
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -52,7 +53,9 @@ def _toy(noise, seed, rounds=60):
 
 
 def test_toy_example_claims():
-    assert np.linalg.norm([8.0, 8.0]) == pytest.approx(11.31, abs=0.01)  # CEMT-1
+    # CEMT-1: the mean starts 11.31 from the target; it is the first sample CEM evaluates.
+    start = _toy(0.0, 0, rounds=0)
+    assert np.linalg.norm(start.ask()[0]) == pytest.approx(11.31, abs=0.01)
     plain = [_toy(0.0, s) for s in range(5)]
     noisy = [_toy(0.8, s) for s in range(5)]
     # CEMT-2: without noise Σ collapses and the mean stops short of the origin.
@@ -73,22 +76,13 @@ def test_invalid_configuration():
             cem.CEM(np.zeros(11), **{"noise": 0.8, "seed": 0, **kwargs})
 
 
-def _settings(tmp_path, **kw):
-    base = {
-        "task": "darwin_walk",
-        "population": 4,
-        "elite": 2,
-        "noise": 0.8,
-        "rounds": 3,
-        "seed": 0,
-        "trial_steps": 120,
-        "eval_seeds": 1,
-        "fall_penalty": 1.0,
-        "lateral_penalty": 0.0,
-        "output_dir": str(tmp_path),
-        "run_name": "r",
-    }
-    return {**base, **kw}
+def _settings(**kw):
+    base = dict(population=4, elite=2, noise=0.8, rounds=3, trial_steps=120, fall_penalty=1.0)
+    return cem.CEMSettings(**{**base, **kw})
+
+
+def _options(tmp_path, **kw):
+    return runs.RunOptions(output_dir=str(tmp_path), run_name="r", **kw)
 
 
 def _without_wall(summary):
@@ -96,8 +90,8 @@ def _without_wall(summary):
 
 
 def test_run_files_and_thread_independence(tmp_path):
-    d1, s1 = cem.run_cem(_settings(tmp_path / "a"), threads=1, log=lambda line: None)
-    d2, s2 = cem.run_cem(_settings(tmp_path / "b"), threads=2, log=lambda line: None)
+    d1, s1 = cem.run_cem(_settings(), _options(tmp_path / "a", threads=1), log=lambda line: None)
+    d2, s2 = cem.run_cem(_settings(), _options(tmp_path / "b", threads=2), log=lambda line: None)
     assert _without_wall(s1) == _without_wall(s2)
     for name in (
         "config.json",
@@ -131,19 +125,20 @@ class Killed(Exception):
 
 
 def test_kill_and_resume_gives_the_same_summary(tmp_path):
-    _, full = cem.run_cem(_settings(tmp_path / "full", rounds=4), log=lambda line: None)
+    _, full = cem.run_cem(_settings(rounds=4), _options(tmp_path / "full"), log=lambda line: None)
 
     def die_after_two(line):
         if line.startswith("round   2"):
             raise Killed
 
-    settings = _settings(tmp_path / "killed", rounds=4)
+    settings, options = _settings(rounds=4), _options(tmp_path / "killed")
     with pytest.raises(Killed):
-        cem.run_cem(settings, log=die_after_two)
+        cem.run_cem(settings, options, log=die_after_two)
     run_dir = tmp_path / "killed/cem/darwin_walk/r"
     assert not (run_dir / "summary.json").exists()
     assert json.loads((run_dir / "checkpoint.json").read_text())["totals"]["round"] == 2
-    _, resumed = cem.run_cem(settings, resume=True, log=lambda line: None)
+    resume = dataclasses.replace(options, resume=True)
+    _, resumed = cem.run_cem(settings, resume, log=lambda line: None)
     assert _without_wall(resumed) == _without_wall(full)
     full_rows = (tmp_path / "full/cem/darwin_walk/r/progress.csv").read_text().splitlines()
     rows = (run_dir / "progress.csv").read_text().splitlines()
@@ -151,25 +146,26 @@ def test_kill_and_resume_gives_the_same_summary(tmp_path):
 
 
 def test_corrupt_and_foreign_checkpoints_are_refused(tmp_path):
-    settings = _settings(tmp_path, rounds=5)
+    settings, options = _settings(rounds=5), _options(tmp_path)
 
     def die(line):
         raise Killed
 
     with pytest.raises(Killed):
-        cem.run_cem(settings, log=die)
+        cem.run_cem(settings, options, log=die)
     checkpoint = tmp_path / "cem/darwin_walk/r/checkpoint.json"
+    resume = dataclasses.replace(options, resume=True)
     with pytest.raises(optimize.CheckpointError, match="another configuration"):
-        cem.run_cem({**settings, "population": 6}, resume=True, log=die)
+        cem.run_cem(dataclasses.replace(settings, population=6), resume, log=die)
     checkpoint.write_text("{not json")
     with pytest.raises(optimize.CheckpointError, match="cannot read"):
-        cem.run_cem(settings, resume=True, log=die)
+        cem.run_cem(settings, resume, log=die)
 
 
 def test_existing_run_is_not_overwritten(tmp_path):
-    cem.run_cem(_settings(tmp_path, rounds=1), log=lambda line: None)
+    cem.run_cem(_settings(rounds=1), _options(tmp_path), log=lambda line: None)
     with pytest.raises(runs.RunDirectoryExists):
-        cem.run_cem(_settings(tmp_path, rounds=1), log=lambda line: None)
+        cem.run_cem(_settings(rounds=1), _options(tmp_path), log=lambda line: None)
 
 
 def _cli(*args):
@@ -211,11 +207,9 @@ def test_cli_run_and_refusal_to_overwrite(tmp_path):
 def test_cmaes_runs_resumes_and_is_thread_independent(tmp_path):
     from baselines import cmaes
 
-    settings = {**_settings(tmp_path / "a", rounds=3), "sigma0": 1.0}
-    _, full = cmaes.run_cmaes(settings, threads=1, log=lambda line: None)
-    _, two = cmaes.run_cmaes(
-        {**settings, "output_dir": str(tmp_path / "b")}, threads=2, log=lambda line: None
-    )
+    settings = cmaes.CMAESSettings(population=4, rounds=3, trial_steps=120, fall_penalty=1.0)
+    _, full = cmaes.run_cmaes(settings, _options(tmp_path / "a", threads=1), log=lambda x: None)
+    _, two = cmaes.run_cmaes(settings, _options(tmp_path / "b", threads=2), log=lambda x: None)
     assert _without_wall(full) == _without_wall(two)
     assert full["evaluations"] == 3 * 4 + 1
     rows = (tmp_path / "a" / "cmaes" / "darwin_walk" / "r" / "progress.csv").read_text()
@@ -227,11 +221,12 @@ def test_cmaes_runs_resumes_and_is_thread_independent(tmp_path):
         if line.startswith("round   1"):
             raise Killed
 
-    killed = {**settings, "output_dir": str(tmp_path / "c")}
+    killed = _options(tmp_path / "c")
     with pytest.raises(Killed):
-        cmaes.run_cmaes(killed, log=die_after_one)
+        cmaes.run_cmaes(settings, killed, log=die_after_one)
     np.random.seed(12345)  # Something else touches NumPy's global generator in between.
-    _, resumed = cmaes.run_cmaes(killed, resume=True, log=lambda line: None)
+    resume = dataclasses.replace(killed, resume=True)
+    _, resumed = cmaes.run_cmaes(settings, resume, log=lambda line: None)
     assert _without_wall(resumed) == _without_wall(full)
 
 

@@ -7,26 +7,15 @@ pytest.importorskip("matplotlib")
 
 from analysis import report
 from baselines import cem
+from baselines import runs as baselines_runs
 from baselines.tabular import runner
 
 
 def test_report_from_small_runs(tmp_path):
     runs = tmp_path / "runs"
     cem.run_cem(
-        {
-            "task": "darwin_walk",
-            "population": 3,
-            "elite": 1,
-            "noise": 0.8,
-            "rounds": 2,
-            "seed": 0,
-            "trial_steps": 60,
-            "eval_seeds": 1,
-            "fall_penalty": 10.0,
-            "lateral_penalty": 0.0,
-            "output_dir": str(runs),
-            "run_name": "K3_n0.8_e1_seed0",
-        },
+        cem.CEMSettings(population=3, elite=1, rounds=2, trial_steps=60),
+        baselines_runs.RunOptions(output_dir=str(runs), run_name="K3_n0.8_e1_seed0"),
         log=lambda line: None,
     )
     runner.execute(
