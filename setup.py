@@ -43,6 +43,7 @@ setup(
         "numpy>=1.26,<3",
         "absl-py>=1.4,<3",
         "pandas>=2.0,<4",
+        "tqdm>=4.60,<5",
     ],
     extras_require={
         # The tests also render a gait video (Pillow for GIF/PNG, imageio + ffmpeg for MP4),
@@ -57,6 +58,9 @@ setup(
             "gymnasium>=1.0,<2",
             "shimmy[dm-control]>=2.0,<3",
             "matplotlib>=3.7,<4",
+            # A real PyTorch agent (Stable-Baselines3 PPO) beside cpg_suite in one process.
+            "torch>=2.3,<3",
+            "stable-baselines3>=2.3,<3",
         ],
         "plots": [
             "matplotlib>=3.7,<4",
@@ -65,8 +69,15 @@ setup(
             "imageio-ffmpeg>=0.5,<1",
         ],
         "gym": ["gymnasium>=1.0,<2", "shimmy[dm-control]>=2.0,<3"],
-        # Optimizers beyond the study (CMA-ES).
+        # pycma: checks our CMA-ES against it and runs as a bring-your-own optimizer.
         "optim": ["cma>=3.3,<5"],
+        # Deep RL agents (PyTorch; the wheels bring CUDA libraries of several GB).
+        "rl": [
+            "gymnasium>=1.0,<2",
+            "shimmy[dm-control]>=2.0,<3",
+            "torch>=2.3,<3",
+            "stable-baselines3>=2.3,<3",
+        ],
     },
     classifiers=[
         "Programming Language :: Python :: 3",

@@ -34,6 +34,24 @@ import cpg_suite
 from cpg_suite import cpg, darwin
 
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
+# The warnings after which dm_control declares the physics state invalid (PhysicsError).
+_INVALID_STATE_WARNINGS = tuple(
+    int(w)
+    for w in (
+        mujoco.mjtWarning.mjWARN_BADQACC,
+        mujoco.mjtWarning.mjWARN_BADQVEL,
+        mujoco.mjtWarning.mjWARN_BADQPOS,
+    )
+)
+
+
+def _clear_invalid_state_warnings(data: mujoco.MjData) -> None:
+    for w in _INVALID_STATE_WARNINGS:
+        data.warning[w].number = 0
+
+
+def _invalid_state(data: mujoco.MjData) -> bool:
+    return any(data.warning[w].number > 0 for w in _INVALID_STATE_WARNINGS)
 
 
 @dataclasses.dataclass
@@ -133,22 +151,23 @@ class BatchEvaluator:
         return local
 
     def _run_one(self, ctrl: np.ndarray, state0: np.ndarray) -> tuple[float, float, int, int]:
-        """One trajectory: (distance, lateral, fall_step or 0, physics steps)."""
+        """One trajectory: (distance, lateral, fall_step or 0, physics steps).
+
+        A divergent simulation (MuJoCo's invalid-state warnings, after which MuJoCo resets
+        the model to its initial pose) is a fall at the control step where it happened,
+        with the displacement of the last valid control step, as in the environment.
+        """
         worker = self._worker()
-        data = worker.data
         start = state0[self._root][:2].copy()
-        state = state0[None].copy()
-        warm = np.zeros((1, self.model.nv))
+        state, warm = state0[None].copy(), np.zeros((1, self.model.nv))
         last = state0[self._root]
         simulated = 0
         for begin in range(0, self.steps, self.segment):
             end = min(begin + self.segment, self.steps)
-            controls = np.repeat(ctrl[begin:end], self.n_sub, axis=0)[None]
-            states, _ = worker.rollout.rollout(
-                self.model, data, state, controls, initial_warmstart=warm
-            )
-            simulated += controls.shape[1]
-            roots = states[0, self.n_sub - 1 :: self.n_sub, self._root]  # after each control step
+            roots, final, diverged = self._segment(worker, ctrl[begin:end], state, warm)
+            simulated += (end - begin) * self.n_sub
+            if diverged is not None:
+                roots = roots[:diverged]  # The control steps before the divergent one.
             fallen = np.flatnonzero(darwin.has_fallen(roots))
             if fallen.size:
                 t = int(fallen[0])
@@ -159,10 +178,51 @@ class BatchEvaluator:
                     begin + t + 1,
                     simulated,
                 )
+            if diverged is not None:
+                last = roots[-1] if len(roots) else last
+                return (
+                    float(last[0] - start[0]),
+                    float(last[1] - start[1]),
+                    begin + diverged + 1,
+                    simulated,
+                )
             last = roots[-1]
-            state = states[:, -1].copy()
-            warm = data.qacc_warmstart[None].copy()
+            state, warm = final
         return float(last[0] - start[0]), float(last[1] - start[1]), 0, simulated
+
+    def _segment(self, worker, ctrl: np.ndarray, state: np.ndarray, warm: np.ndarray):
+        """Rolls out control steps `ctrl` from `state`.
+
+        Returns:
+          `(roots, (state, warm), diverged)`: the root coordinates after each control step,
+          the state and warm start to continue from, and the index of the control step in
+          which the simulation diverged (None if it did not).
+        """
+        data = worker.data
+        _clear_invalid_state_warnings(data)
+        controls = np.repeat(ctrl, self.n_sub, axis=0)[None]
+        states, _ = worker.rollout.rollout(
+            self.model, data, state, controls, initial_warmstart=warm
+        )
+        roots = states[0, self.n_sub - 1 :: self.n_sub, self._root]
+        final = (states[:, -1].copy(), data.qacc_warmstart[None].copy())
+        if not _invalid_state(data) and np.all(np.isfinite(states)):
+            return roots, final, None
+        return roots, final, self._divergent_step(worker, ctrl, state, warm)
+
+    def _divergent_step(self, worker, ctrl: np.ndarray, state, warm) -> int:
+        """Replays a segment one control step at a time to find the step that diverged."""
+        data = worker.data
+        for t in range(len(ctrl)):
+            _clear_invalid_state_warnings(data)
+            controls = np.repeat(ctrl[t : t + 1], self.n_sub, axis=0)[None]
+            states, _ = worker.rollout.rollout(
+                self.model, data, state, controls, initial_warmstart=warm
+            )
+            if _invalid_state(data) or not np.all(np.isfinite(states)):
+                return t
+            state, warm = states[:, -1].copy(), data.qacc_warmstart[None].copy()
+        return len(ctrl) - 1
 
     def evaluate(self, amplitudes, seeds=(0,)) -> BatchResult:
         """Evaluates every amplitude vector from every initial-state seed.

@@ -51,20 +51,22 @@ def evaluate_gait(
             f"{task} has a control step of {env.control_timestep()} s, expected {_CONTROL_TIMESTEP}"
         )
     env.reset()
-    start = physics.torso_position()
+    start = end = physics.torso_position()
     fall_step, total, error = None, 0.0, None
     for t in range(steps):
         action = physics.targets_to_action(targets[t])
         try:
             ts = env.step(action)
-        except rl_control.PhysicsError as e:  # A divergent state is a failed trial.
+        except rl_control.PhysicsError as e:
+            # A divergent state is a fall; MuJoCo has reset the model, so the displacement
+            # is the one after the last valid control step.
             fall_step, error = t + 1, str(e)
             break
+        end = physics.torso_position()
         total += ts.reward
         if ts.last():
             fall_step = t + 1
             break
-    end = physics.torso_position()
     result = {
         "seed": int(seed),
         "distance_m": float(end[0] - start[0]),

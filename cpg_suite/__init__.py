@@ -8,18 +8,17 @@ Usage mirrors `dm_control.suite`::
 
 Task ids are `<domain>_<task>`; `ALL_TASKS`, `BENCHMARKING` and `TASKS_BY_DOMAIN` hold
 `(domain, task)` pairs as in dm_control.
+
+Importing the package changes no process-wide state: no environment variables, random
+generators, logging or absl flags. Rendering uses whatever backend MuJoCo's `MUJOCO_GL`
+selects; on a machine without a display set `MUJOCO_GL=egl` (GPU or Mesa EGL) or
+`MUJOCO_GL=osmesa` (software) before the first import of dm_control.
 """
 
 from __future__ import annotations
 
 import collections
 import inspect
-import os
-
-# Headless machines have no X display for GLFW: default to EGL there (set MUJOCO_GL to
-# override). Only affects rendering.
-if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
-    os.environ["MUJOCO_GL"] = "egl"
 
 from dm_control.rl import control
 

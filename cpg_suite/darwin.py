@@ -105,6 +105,7 @@ def walk(
     posture: np.ndarray | None = None,
     init_noise: float = _INIT_NOISE,
     servo_gain: float | None = None,
+    torque_limit: float | None = None,
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Returns the walking task: reward = forward torso displacement per step (m).
@@ -116,14 +117,14 @@ def walk(
         the default `cpg.CPGConfig`).
       init_noise: Half-width of the uniform perturbation of each leg joint, rad.
       servo_gain: Position gain kp of every servo, N·m/rad (default: the model's 40).
+      torque_limit: Torque limit of every servo, N·m (default: the model's 2.5).
       environment_kwargs: Passed to `control.Environment`.
 
     Returns:
       A `control.Environment`.
     """
-    return _environment(
-        "walk", time_limit, random, posture, init_noise, servo_gain, environment_kwargs
-    )
+    servo = {"servo_gain": servo_gain, "torque_limit": torque_limit}
+    return _environment("walk", time_limit, random, posture, init_noise, servo, environment_kwargs)
 
 
 @SUITE.add("benchmarking")
@@ -133,6 +134,7 @@ def balance(
     posture: np.ndarray | None = None,
     init_noise: float = _INIT_NOISE,
     servo_gain: float | None = None,
+    torque_limit: float | None = None,
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Returns the balance task: reward = −(COP distance to the stance sole centre), m.
@@ -142,17 +144,18 @@ def balance(
     Returns:
       A `control.Environment`.
     """
+    servo = {"servo_gain": servo_gain, "torque_limit": torque_limit}
     return _environment(
-        "balance", time_limit, random, posture, init_noise, servo_gain, environment_kwargs
+        "balance", time_limit, random, posture, init_noise, servo, environment_kwargs
     )
 
 
-def _environment(
-    objective, time_limit, random, posture, init_noise, servo_gain, environment_kwargs
-):
+def _environment(objective, time_limit, random, posture, init_noise, servo, environment_kwargs):
     physics = Physics.from_xml_string(*get_model_and_assets())
-    if servo_gain is not None:
-        physics.set_servo_gain(servo_gain)
+    if servo["servo_gain"] is not None:
+        physics.set_servo_gain(servo["servo_gain"])
+    if servo["torque_limit"] is not None:
+        physics.set_torque_limit(servo["torque_limit"])
     task = CPGTask(objective, posture=posture, init_noise=init_noise, random=random)
     return base.make_environment(physics, task, time_limit, CONTROL_TIMESTEP, environment_kwargs)
 
@@ -210,6 +213,16 @@ class Physics(mujoco.Physics):
             raise ValueError(f"servo gain must be a positive number of N·m/rad, got {kp!r}")
         self.model.actuator_gainprm[:, 0] = kp
         self.model.actuator_biasprm[:, 1] = -kp
+
+    def set_torque_limit(self, limit: float) -> None:
+        """Sets the torque limit of every servo, N·m.
+
+        Raises:
+          ValueError: If the limit is not a positive number.
+        """
+        if not (np.isfinite(limit) and limit > 0):
+            raise ValueError(f"torque limit must be a positive number of N·m, got {limit!r}")
+        self.model.actuator_forcerange[:] = [-limit, limit]
 
     def servo_gain(self) -> float:
         """The position gain of the servos, N·m/rad."""

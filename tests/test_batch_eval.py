@@ -65,3 +65,37 @@ def test_bad_input():
             evaluator.evaluate(np.zeros((2, 5)))
         with pytest.raises(ValueError):
             evaluator.evaluate(np.full(11, np.nan))
+
+
+def test_a_divergent_simulation_is_a_fall_in_both_evaluators():
+    """Stiff servos without a torque limit make MuJoCo's state blow up (mjWARN_BADQACC,
+    then MuJoCo resets the model): both evaluators report a fall at the same control step
+    with the displacement before it, never the reset pose as a trial that kept walking."""
+    amps = cpg.amplitudes_from("hand_tuned")
+    unstable = {"servo_gain": 1.5e4, "torque_limit": 1e6}
+    reference = [evaluate_gait(amps, s, steps=200, task_kwargs=unstable) for s in (0, 1)]
+    assert all(r["fell"] and "error" in r for r in reference)
+    with BatchEvaluator(steps=200, task_kwargs=unstable, segment=50) as evaluator:
+        batch = evaluator.evaluate(np.stack([amps, amps]), [0, 1])
+    np.testing.assert_array_equal(batch.fall_step, [[r["fall_step"] for r in reference]] * 2)
+    np.testing.assert_array_equal(batch.distance_m[0], [r["distance_m"] for r in reference])
+    assert np.all(np.isfinite(batch.distance_m))
+
+
+def test_nan_costs_are_failed_trials_never_the_best():
+    from baselines import cem, cmaes, optimize
+
+    costs = np.array([np.nan, 3.0, -np.inf, 1.0, np.inf])
+    assert optimize.best_index(costs) == 3
+    assert optimize.best_index(np.array([np.nan, np.inf])) is None
+    samples = np.arange(25.0).reshape(5, 5)
+    for opt in (
+        cem.CEM(np.zeros(5), population=5, elite=1, noise=0.0, seed=0),
+        cmaes.CMAES(np.zeros(5), population=5, sigma0=1.0, seed=0),
+    ):
+        opt.tell(samples, costs)
+        assert np.all(np.isfinite(opt.mean))
+    # CEM with elite 1 adopts the single best finite sample.
+    elite_one = cem.CEM(np.zeros(5), population=5, elite=1, noise=0.0, seed=0)
+    elite_one.tell(samples, costs)
+    np.testing.assert_array_equal(elite_one.mean, samples[3])
