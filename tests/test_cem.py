@@ -238,3 +238,26 @@ def test_cmaes_cli_bad_flags(tmp_path):
         timeout=120,
     )
     assert out.returncode == 2 and "--sigma0" in out.stderr
+
+
+def test_config_command_reruns_the_run(tmp_path):
+    import shlex
+    import shutil
+
+    args = ("--population=3", "--rounds=2", "--trial_steps=60", "--seed=4")
+    out = _cli(*args, f"--output_dir={tmp_path}", "--run_name=r")
+    assert out.returncode == 0, out.stderr
+    run_dir = tmp_path / "cem" / "darwin_walk" / "r"
+    config = json.loads((run_dir / "config.json").read_text())
+    first = json.loads((run_dir / "summary.json").read_text())
+    command = shlex.split(config["command"])
+    assert command[:3] == ["python", "-m", "baselines.cem"]
+    assert config["settings"] == dataclasses.asdict(
+        cem.CEMSettings(population=3, rounds=2, trial_steps=60, seed=4)
+    )
+    shutil.rmtree(run_dir)
+    again = subprocess.run(
+        [sys.executable, *command[1:]], capture_output=True, text=True, timeout=300
+    )
+    assert again.returncode == 0, again.stderr
+    assert _without_wall(json.loads((run_dir / "summary.json").read_text())) == _without_wall(first)
