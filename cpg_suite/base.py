@@ -76,7 +76,32 @@ class Task(suite_base.Task):
     def after_step(self, physics) -> None:
         if self._visualize_reward:
             unit = float(np.clip(self.reward_to_unit(self.get_reward(physics)), 0.0, 1.0))
-            suite_base._set_reward_colors(physics, unit)
+            set_reward_colors(physics, unit)
+
+
+# The materials that reward visualization blends (xml/common/materials.xml), the same
+# scheme as the dm_control suite's: each `<name>` goes from `<name>_default` to
+# `<name>_highlight` as the reward goes from 0 to 1.
+_REWARD_MATERIALS = ("self", "effector", "target")
+
+
+def set_reward_colors(physics, unit_reward: float) -> None:
+    """Blends the self/effector/target materials by a reward in [0, 1] (1 = highlight).
+
+    Args:
+      physics: A physics whose model has the materials of `xml/common/materials.xml`.
+      unit_reward: The reward mapped into [0, 1].
+
+    Raises:
+      ValueError: If `unit_reward` is outside [0, 1].
+    """
+    if not 0.0 <= unit_reward <= 1.0:
+        raise ValueError(f"unit reward must lie in [0, 1], got {unit_reward}")
+    colors = physics.named.model.mat_rgba
+    default = colors[[f"{m}_default" for m in _REWARD_MATERIALS]]
+    highlight = colors[[f"{m}_highlight" for m in _REWARD_MATERIALS]]
+    blend = unit_reward**4  # Like dm_control: better contrast near high rewards.
+    colors[list(_REWARD_MATERIALS)] = blend * highlight + (1.0 - blend) * default
 
 
 def check_continuous_action(action, spec: specs.BoundedArray) -> np.ndarray:
