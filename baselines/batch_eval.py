@@ -23,6 +23,7 @@ that ran it, so results are identical for any thread count.
 from __future__ import annotations
 
 import concurrent.futures
+import copy
 import dataclasses
 import threading
 
@@ -34,6 +35,28 @@ import cpg_suite
 from cpg_suite import cpg, darwin
 
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
+_CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
+_CTRL_AND_PUSH = _CTRL | int(mujoco.mjtState.mjSTATE_XFRC_APPLIED)
+# The DARwIn-OP tasks this evaluator runs: the nominal tasks and the perturbed test tiers.
+TASKS = (
+    "darwin_walk",
+    "darwin_balance",
+    "darwin_walk_randomized",
+    "darwin_walk_push",
+    "darwin_walk_rough",
+)
+
+
+@dataclasses.dataclass
+class Episode:
+    """What one initial-state seed fixes for a trial: the reset state and, on the perturbed
+    tiers, the episode's own model (randomized parameters, raised tiles) and push forces."""
+
+    state: np.ndarray  # mjSTATE_FULLPHYSICS after reset
+    model: mujoco.MjModel
+    pushes: np.ndarray | None  # (steps, 3) force on the torso per control step, N
+
+
 # The warnings after which dm_control declares the physics state invalid (PhysicsError).
 _INVALID_STATE_WARNINGS = tuple(
     int(w)
@@ -81,7 +104,8 @@ class BatchEvaluator:
         task_kwargs: dict | None = None,
     ):
         """Args:
-          task: `darwin_walk` or `darwin_balance` (the same physics; only the reward differs).
+          task: One of `TASKS` (the walking tiers and `darwin_balance`; the distances and
+            falls are the same measure on each).
           steps: Control steps per trial (the study: 1000).
           threads: Worker threads.
           config: CPG constants; the task starts in the CPG's standing posture.
@@ -91,10 +115,8 @@ class BatchEvaluator:
         Raises:
           ValueError: On a non-DARwIn task or non-positive sizes.
         """
-        if task not in ("darwin_walk", "darwin_balance"):
-            raise ValueError(
-                f"the batched evaluator runs darwin_walk or darwin_balance, got {task!r}"
-            )
+        if task not in TASKS:
+            raise ValueError(f"the batched evaluator runs {', '.join(TASKS)}; got {task!r}")
         if steps < 1 or threads < 1 or segment < 1:
             raise ValueError("steps, threads and segment must be ≥ 1")
         self.task, self.steps, self.threads, self.segment = task, steps, threads, segment
@@ -109,7 +131,8 @@ class BatchEvaluator:
         self.model = env.physics.model.ptr
         self.control_timestep = env.control_timestep()
         self.n_sub = int(round(self.control_timestep / self.model.opt.timestep))
-        self._initial: dict[int, np.ndarray] = {}
+        self._episodes: dict[int, Episode] = {}
+        self._torso = env.physics.torso_body()
         self._local = threading.local()
         self._executor = concurrent.futures.ThreadPoolExecutor(threads) if threads > 1 else None
         qpos = self.model.jnt_qposadr[self.model.joint("root").id]
@@ -126,15 +149,25 @@ class BatchEvaluator:
     def __exit__(self, *exc):
         self.close()
 
-    def initial_state(self, seed: int) -> np.ndarray:
-        """The task's reset state for `seed` (the environment seeded with it, reset once)."""
-        if seed not in self._initial:
+    def episode(self, seed: int) -> Episode:
+        """The task's episode for `seed` (the environment seeded with it, reset once)."""
+        if seed not in self._episodes:
             env = cpg_suite.load(self.task, task_kwargs={**self._task_kwargs, "random": seed})
             env.reset()
-            state = np.empty(mujoco.mj_stateSize(self.model, _STATE))
-            mujoco.mj_getState(env.physics.model.ptr, env.physics.data.ptr, state, _STATE)
-            self._initial[seed] = state
-        return self._initial[seed]
+            model, data = env.physics.model.ptr, env.physics.data.ptr
+            state = np.empty(mujoco.mj_stateSize(model, _STATE))
+            mujoco.mj_getState(model, data, state, _STATE)
+            task = env.task
+            own_model = task.randomization is not None or task.terrain is not None
+            pushes = task.push_forces(self.steps) if task.pushes is not None else None
+            self._episodes[seed] = Episode(
+                state, copy.copy(model) if own_model else self.model, pushes
+            )
+        return self._episodes[seed]
+
+    def initial_state(self, seed: int) -> np.ndarray:
+        """The task's reset state for `seed`."""
+        return self.episode(seed).state
 
     def controls(self, amplitudes: np.ndarray) -> np.ndarray:
         """(K, steps, nu) actuator controls, as the task sets them for the CPG's targets."""
@@ -150,7 +183,7 @@ class BatchEvaluator:
             local.rollout = rollout.Rollout(nthread=0)
         return local
 
-    def _run_one(self, ctrl: np.ndarray, state0: np.ndarray) -> tuple[float, float, int, int]:
+    def _run_one(self, ctrl: np.ndarray, episode: Episode) -> tuple[float, float, int, int]:
         """One trajectory: (distance, lateral, fall_step or 0, physics steps).
 
         A divergent simulation (MuJoCo's invalid-state warnings, after which MuJoCo resets
@@ -158,13 +191,15 @@ class BatchEvaluator:
         with the displacement of the last valid control step, as in the environment.
         """
         worker = self._worker()
+        state0 = episode.state
         start = state0[self._root][:2].copy()
         state, warm = state0[None].copy(), np.zeros((1, self.model.nv))
         last = state0[self._root]
         simulated = 0
         for begin in range(0, self.steps, self.segment):
             end = min(begin + self.segment, self.steps)
-            roots, final, diverged = self._segment(worker, ctrl[begin:end], state, warm)
+            steps = self._physics_controls(ctrl, episode, begin, end)
+            roots, final, diverged = self._segment(worker, episode.model, steps, state, warm)
             simulated += (end - begin) * self.n_sub
             if diverged is not None:
                 roots = roots[:diverged]  # The control steps before the divergent one.
@@ -190,39 +225,56 @@ class BatchEvaluator:
             state, warm = final
         return float(last[0] - start[0]), float(last[1] - start[1]), 0, simulated
 
-    def _segment(self, worker, ctrl: np.ndarray, state: np.ndarray, warm: np.ndarray):
-        """Rolls out control steps `ctrl` from `state`.
+    def _physics_controls(self, ctrl: np.ndarray, episode: Episode, begin: int, end: int):
+        """Per control step of [begin, end): the controls of its physics steps and their spec.
+
+        Returns:
+          `(controls, spec)`: (end − begin, n_sub, width) controls and the `mjtState` bits
+          they set: the actuators, plus the torso's applied force on the push tier.
+        """
+        controls = ctrl[begin:end, None, :].repeat(self.n_sub, axis=1)
+        if episode.pushes is None:
+            return controls, _CTRL
+        xfrc = np.zeros((end - begin, self.model.nbody, 6))
+        xfrc[:, self._torso, :3] = episode.pushes[begin:end]
+        xfrc = xfrc.reshape(end - begin, 1, -1).repeat(self.n_sub, axis=1)
+        return np.concatenate([controls, xfrc], axis=2), _CTRL_AND_PUSH
+
+    def _segment(self, worker, model, steps, state: np.ndarray, warm: np.ndarray):
+        """Rolls out a segment's control steps from `state`.
 
         Returns:
           `(roots, (state, warm), diverged)`: the root coordinates after each control step,
           the state and warm start to continue from, and the index of the control step in
           which the simulation diverged (None if it did not).
         """
-        data = worker.data
-        _clear_invalid_state_warnings(data)
-        controls = np.repeat(ctrl, self.n_sub, axis=0)[None]
-        states, _ = worker.rollout.rollout(
-            self.model, data, state, controls, initial_warmstart=warm
+        controls, spec = steps
+        n = len(controls)
+        states = self._rollout(
+            worker, model, state, controls.reshape(1, n * self.n_sub, -1), spec, warm
         )
         roots = states[0, self.n_sub - 1 :: self.n_sub, self._root]
-        final = (states[:, -1].copy(), data.qacc_warmstart[None].copy())
-        if not _invalid_state(data) and np.all(np.isfinite(states)):
+        final = (states[:, -1].copy(), worker.data.qacc_warmstart[None].copy())
+        if not _invalid_state(worker.data) and np.all(np.isfinite(states)):
             return roots, final, None
-        return roots, final, self._divergent_step(worker, ctrl, state, warm)
+        return roots, final, self._divergent_step(worker, model, steps, state, warm)
 
-    def _divergent_step(self, worker, ctrl: np.ndarray, state, warm) -> int:
+    def _rollout(self, worker, model, state, controls, spec, warm) -> np.ndarray:
+        _clear_invalid_state_warnings(worker.data)
+        states, _ = worker.rollout.rollout(
+            model, worker.data, state, controls, control_spec=spec, initial_warmstart=warm
+        )
+        return states
+
+    def _divergent_step(self, worker, model, steps, state, warm) -> int:
         """Replays a segment one control step at a time to find the step that diverged."""
-        data = worker.data
-        for t in range(len(ctrl)):
-            _clear_invalid_state_warnings(data)
-            controls = np.repeat(ctrl[t : t + 1], self.n_sub, axis=0)[None]
-            states, _ = worker.rollout.rollout(
-                self.model, data, state, controls, initial_warmstart=warm
-            )
-            if _invalid_state(data) or not np.all(np.isfinite(states)):
+        controls, spec = steps
+        for t in range(len(controls)):
+            states = self._rollout(worker, model, state, controls[t : t + 1], spec, warm)
+            if _invalid_state(worker.data) or not np.all(np.isfinite(states)):
                 return t
-            state, warm = states[:, -1].copy(), data.qacc_warmstart[None].copy()
-        return len(ctrl) - 1
+            state, warm = states[:, -1].copy(), worker.data.qacc_warmstart[None].copy()
+        return len(controls) - 1
 
     def evaluate(self, amplitudes, seeds=(0,)) -> BatchResult:
         """Evaluates every amplitude vector from every initial-state seed.
@@ -242,11 +294,11 @@ class BatchEvaluator:
         seeds = [int(s) for s in np.atleast_1d(seeds)]
         ctrl = self.controls(amps)
         jobs = [(k, j) for k in range(len(amps)) for j in range(len(seeds))]
-        states = {s: self.initial_state(s) for s in seeds}
+        episodes = {s: self.episode(s) for s in seeds}
 
         def run(job):
             k, j = job
-            return self._run_one(ctrl[k], states[seeds[j]])
+            return self._run_one(ctrl[k], episodes[seeds[j]])
 
         if self._executor is None:
             results = [run(job) for job in jobs]

@@ -47,7 +47,7 @@ from dm_control.rl import control
 from dm_control.utils import containers
 from dm_env import specs
 
-from cpg_suite import base, cpg
+from cpg_suite import base, cpg, perturbations
 
 CONTROL_TIMESTEP = 0.016  # s: Webots DARwIn-OP basicTimeStep (the one definition).
 _DEFAULT_TIME_LIMIT = 16.0  # s: 1000 control steps ("1000 timesteps" of the study).
@@ -93,9 +93,19 @@ def has_fallen(root_qpos: np.ndarray) -> np.ndarray:
     return (q[..., 2] < _FALL_HEIGHT) | (torso_upright(q[..., 3:7]) < _FALL_TILT_COS)
 
 
-def get_model_and_assets() -> tuple[str, dict[str, bytes]]:
-    """Returns the DARwIn-OP model's XML string and its assets."""
-    return base.model_and_assets("darwin.xml")
+def get_model_and_assets(
+    terrain: perturbations.Terrain | None = None,
+) -> tuple[str, dict[str, bytes]]:
+    """Returns the DARwIn-OP model's XML string and its assets.
+
+    Args:
+      terrain: Adds the tiles of this uneven ground (hidden below the plane until a task
+        raises them).
+    """
+    xml, assets = base.model_and_assets("darwin.xml")
+    if terrain is not None:
+        xml = xml.replace("</worldbody>", f"  {perturbations.tile_xml(terrain)}\n  </worldbody>")
+    return xml, assets
 
 
 @SUITE.add("benchmarking")
@@ -150,13 +160,112 @@ def balance(
     )
 
 
-def _environment(objective, time_limit, random, posture, init_noise, servo, environment_kwargs):
-    physics = Physics.from_xml_string(*get_model_and_assets())
+@SUITE.add()
+def walk_randomized(
+    time_limit: float = _DEFAULT_TIME_LIMIT,
+    random=None,
+    posture: np.ndarray | None = None,
+    randomization: perturbations.Randomization | None = None,
+    environment_kwargs: dict | None = None,
+) -> control.Environment:
+    """Walking with the physical parameters drawn per episode (the randomized test tier).
+
+    Args:
+      time_limit, random, posture, environment_kwargs: As for `walk`.
+      randomization: The ranges (default `perturbations.Randomization()`); its
+        `init_noise` replaces the nominal initial-posture noise.
+
+    Returns:
+      A `control.Environment`.
+    """
+    randomization = randomization or perturbations.Randomization()
+    return _environment(
+        "walk",
+        time_limit,
+        random,
+        posture,
+        randomization.init_noise,
+        {"servo_gain": None, "torque_limit": None},
+        environment_kwargs,
+        perturbation={"randomization": randomization},
+    )
+
+
+@SUITE.add()
+def walk_push(
+    time_limit: float = _DEFAULT_TIME_LIMIT,
+    random=None,
+    posture: np.ndarray | None = None,
+    pushes: perturbations.Pushes | None = None,
+    environment_kwargs: dict | None = None,
+) -> control.Environment:
+    """Walking with random horizontal pushes on the torso (the push test tier).
+
+    Args:
+      time_limit, random, posture, environment_kwargs: As for `walk`.
+      pushes: When, how hard and how long (default `perturbations.Pushes()`).
+
+    Returns:
+      A `control.Environment`.
+    """
+    return _environment(
+        "walk",
+        time_limit,
+        random,
+        posture,
+        _INIT_NOISE,
+        {"servo_gain": None, "torque_limit": None},
+        environment_kwargs,
+        perturbation={"pushes": pushes or perturbations.Pushes()},
+    )
+
+
+@SUITE.add()
+def walk_rough(
+    time_limit: float = _DEFAULT_TIME_LIMIT,
+    random=None,
+    posture: np.ndarray | None = None,
+    terrain: perturbations.Terrain | None = None,
+    environment_kwargs: dict | None = None,
+) -> control.Environment:
+    """Walking on uneven ground: tiles raised at random per episode (the rough test tier).
+
+    Args:
+      time_limit, random, posture, environment_kwargs: As for `walk`.
+      terrain: The tiles (default `perturbations.Terrain()`); `max_height=0` is the plane.
+
+    Returns:
+      A `control.Environment`.
+    """
+    return _environment(
+        "walk",
+        time_limit,
+        random,
+        posture,
+        _INIT_NOISE,
+        {"servo_gain": None, "torque_limit": None},
+        environment_kwargs,
+        perturbation={"terrain": terrain or perturbations.Terrain()},
+    )
+
+
+def _environment(
+    objective,
+    time_limit,
+    random,
+    posture,
+    init_noise,
+    servo,
+    environment_kwargs,
+    perturbation: dict | None = None,
+):
+    perturbation = perturbation or {}
+    physics = Physics.from_xml_string(*get_model_and_assets(perturbation.get("terrain")))
     if servo["servo_gain"] is not None:
         physics.set_servo_gain(servo["servo_gain"])
     if servo["torque_limit"] is not None:
         physics.set_torque_limit(servo["torque_limit"])
-    task = CPGTask(objective, posture=posture, init_noise=init_noise, random=random)
+    task = CPGTask(objective, posture=posture, init_noise=init_noise, random=random, **perturbation)
     return base.make_environment(physics, task, time_limit, CONTROL_TIMESTEP, environment_kwargs)
 
 
@@ -201,6 +310,9 @@ class Physics(mujoco.Physics):
         self._touch = slice(sensor("touch_l").start, sensor("touch_r").stop)
         self._leg_range = model.jnt_range[[model.name2id(n, "joint") for n in cpg.LEG_JOINTS]]
         self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
+        names = [model.id2name(i, "geom") or "" for i in range(model.ngeom)]
+        self._tiles = np.array([i for i, n in enumerate(names) if n.startswith("tile")], int)
+        self._ground = np.array([self._floor, *self._feet, *self._tiles], int)
 
     # Joints and servos.
     def set_servo_gain(self, kp: float) -> None:
@@ -223,6 +335,68 @@ class Physics(mujoco.Physics):
         if not (np.isfinite(limit) and limit > 0):
             raise ValueError(f"torque limit must be a positive number of N·m, got {limit!r}")
         self.model.actuator_forcerange[:] = [-limit, limit]
+
+    def set_joint_damping(self, damping: float) -> None:
+        """Sets the damping of every hinge joint (arms, head and legs), N·m·s/rad.
+
+        Raises:
+          ValueError: If the damping is negative or not finite.
+        """
+        if not (np.isfinite(damping) and damping >= 0):
+            raise ValueError(f"joint damping must be ≥ 0 N·m·s/rad, got {damping!r}")
+        hinges = self.model.jnt_type == mj.mjtJoint.mjJNT_HINGE
+        self.model.dof_damping[self.model.jnt_dofadr[hinges]] = damping
+
+    def set_ground_friction(self, friction: float) -> None:
+        """Sets the sliding friction of the floor, the terrain tiles and the soles.
+
+        MuJoCo takes the larger coefficient of two touching geoms, so both sides change.
+
+        Raises:
+          ValueError: If the friction is not a positive number.
+        """
+        if not (np.isfinite(friction) and friction > 0):
+            raise ValueError(f"friction must be a positive number, got {friction!r}")
+        self.model.geom_friction[self._ground, 0] = friction
+
+    def set_torso_inertial(self, mass: float, inertia: np.ndarray, com: np.ndarray) -> None:
+        """Sets the torso's mass (kg), principal inertia (kg·m²) and centre of mass (m).
+
+        Recomputes the model's derived constants (`mj_setConst`) so the solver sees them.
+        """
+        self.model.body_mass[self._torso] = mass
+        self.model.body_inertia[self._torso] = inertia
+        self.model.body_ipos[self._torso] = com
+        mj.mj_setConst(self.model.ptr, self.data.ptr)
+
+    def torso_inertial(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """The torso's mass (kg), principal inertia (kg·m²) and centre of mass (m)."""
+        torso = self._torso
+        model = self.model
+        return (
+            float(model.body_mass[torso]),
+            model.body_inertia[torso].copy(),
+            model.body_ipos[torso].copy(),
+        )
+
+    def set_tile_heights(self, heights: np.ndarray) -> None:
+        """Raises the terrain tiles' tops to `heights` above the plane, m (0: hidden).
+
+        Raises:
+          ValueError: If the model has no tiles or the heights do not match them.
+        """
+        heights = np.asarray(heights, dtype=np.float64)
+        if heights.shape != self._tiles.shape or not len(self._tiles):
+            raise ValueError(f"need {len(self._tiles)} tile heights, got shape {heights.shape}")
+        self.model.geom_pos[self._tiles, 2] = perturbations.tile_heights_to_z(heights)
+
+    def set_torso_push(self, force: np.ndarray) -> None:
+        """Applies a force (N, world frame) at the torso's centre of mass until changed."""
+        self.data.xfrc_applied[self._torso, :3] = force
+
+    def torso_body(self) -> int:
+        """The torso's body id (the row of `xfrc_applied` a push acts on)."""
+        return int(self._torso)
 
     def servo_gain(self) -> float:
         """The position gain of the servos, N·m/rad."""
@@ -438,6 +612,9 @@ class CPGTask(base.Task):
         posture: np.ndarray | None = None,
         init_noise: float = _INIT_NOISE,
         random=None,
+        randomization: perturbations.Randomization | None = None,
+        pushes: perturbations.Pushes | None = None,
+        terrain: perturbations.Terrain | None = None,
     ):
         """Initializes the task.
 
@@ -446,6 +623,9 @@ class CPGTask(base.Task):
           posture: Starting leg joint angles (12,), rad (default: the CPG standing posture).
           init_noise: Half-width of the uniform joint perturbation at reset, rad (≥ 0).
           random: Seed or `np.random.RandomState`.
+          randomization: Draw the physical parameters per episode from these ranges.
+          pushes: Push the torso as these describe, drawn per episode.
+          terrain: Raise the model's tiles (it must have them) per episode.
 
         Raises:
           ValueError: On an unknown objective, a posture of the wrong shape, or negative
@@ -462,20 +642,56 @@ class CPGTask(base.Task):
         self.posture = posture
         self.init_noise = float(init_noise)
         self._action_spec = specs.BoundedArray((12,), np.float64, -1.0, 1.0, name="leg_targets")
+        self.randomization, self.pushes, self.terrain = randomization, pushes, terrain
+        self.episode_parameters: dict = {}
+        self.push_schedule: list[tuple] = []
+        self._nominal_torso = None
         self.start_position = np.zeros(3)
         self._x_before = 0.0
         super().__init__(random=random)
 
     def initialize_episode(self, physics: Physics) -> None:
+        """Draws the initial posture, then the episode's perturbations, in a fixed order.
+
+        The posture's draw comes first, so a tier whose perturbation is switched off (e.g.
+        zero-height terrain) starts from the nominal task's state for the same seed.
+        """
         noise = self.random.uniform(-self.init_noise, self.init_noise, size=12)
+        if self.randomization is not None:
+            self.episode_parameters = self.randomization.sample(self.random)
+            self._apply_parameters(physics, self.episode_parameters)
+        if self.terrain is not None:
+            physics.set_tile_heights(self.terrain.sample(self.random))
+        if self.pushes is not None:
+            self.push_schedule = self.pushes.sample(self.random, CONTROL_TIMESTEP)
+            physics.set_torso_push(np.zeros(3))
         physics.set_standing_pose(self.posture + noise)
         self.start_position = physics.torso_position()
         self._x_before = self.start_position[0]
         super().initialize_episode(physics)
 
+    def _apply_parameters(self, physics: Physics, params: dict) -> None:
+        if self._nominal_torso is None:
+            self._nominal_torso = physics.torso_inertial()
+        mass, inertia, com = self._nominal_torso
+        physics.set_servo_gain(params["servo_gain"])
+        physics.set_torque_limit(params["torque_limit"])
+        physics.set_joint_damping(params["joint_damping"])
+        physics.set_ground_friction(params["friction"])
+        shift = np.array([params["torso_com_shift"][0], params["torso_com_shift"][1], 0.0])
+        scale = params["torso_mass_scale"]
+        physics.set_torso_inertial(mass * scale, inertia * scale, com + shift)
+
+    def push_forces(self, n_steps: int) -> np.ndarray:
+        """(n_steps, 3) push force on the torso during each control step of the episode, N."""
+        return perturbations.push_forces(self.push_schedule, n_steps)
+
     def before_step(self, action, physics: Physics) -> None:
         action = base.check_continuous_action(action, self._action_spec)
         physics.set_leg_targets(physics.action_to_targets(action))
+        if self.pushes is not None:
+            step = int(round(physics.data.time / CONTROL_TIMESTEP))  # 0-based control step
+            physics.set_torso_push(perturbations.push_force(self.push_schedule, step))
         self._x_before = physics.forward_position()
 
     def get_observation(self, physics: Physics) -> collections.OrderedDict:
