@@ -44,6 +44,7 @@ setup(
         "absl-py>=1.4,<3",
         "pandas>=2.0,<4",
         "tqdm>=4.60,<5",
+        "scipy>=1.10,<2",
     ],
     extras_require={
         # The tests also render a gait video (Pillow for GIF/PNG, imageio + ffmpeg for MP4),

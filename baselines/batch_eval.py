@@ -32,6 +32,7 @@ import numpy as np
 from mujoco import rollout
 
 import cpg_suite
+from baselines import quality as gait_quality
 from cpg_suite import cpg, darwin
 
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -68,12 +69,18 @@ _INVALID_STATE_WARNINGS = tuple(
 )
 
 
-def _clear_invalid_state_warnings(data: mujoco.MjData) -> None:
+def _sensor_slice(model: mujoco.MjModel, first: str, last: str) -> slice:
+    """The `sensordata` range from sensor `first` to sensor `last`, inclusive."""
+    a, b = model.sensor(first), model.sensor(last)
+    return slice(int(a.adr[0]), int(b.adr[0] + b.dim[0]))
+
+
+def clear_invalid_state_warnings(data: mujoco.MjData) -> None:
     for w in _INVALID_STATE_WARNINGS:
         data.warning[w].number = 0
 
 
-def _invalid_state(data: mujoco.MjData) -> bool:
+def invalid_state(data: mujoco.MjData) -> bool:
     return any(data.warning[w].number > 0 for w in _INVALID_STATE_WARNINGS)
 
 
@@ -85,6 +92,7 @@ class BatchResult:
     lateral_m: np.ndarray  # (K, S) torso y displacement
     fall_step: np.ndarray  # (K, S) 1-based control step of the fall, 0 = no fall
     sim_steps: int  # physics steps simulated
+    quality: dict | None = None  # (K, S) arrays of `baselines.quality.FIELDS`, if asked
 
     @property
     def fell(self) -> np.ndarray:
@@ -133,6 +141,16 @@ class BatchEvaluator:
         self.n_sub = int(round(self.control_timestep / self.model.opt.timestep))
         self._episodes: dict[int, Episode] = {}
         self._torso = env.physics.torso_body()
+        nq = self.model.nq
+        self._leg_qvel = 1 + nq + env.physics.leg_dofs()  # in the FULLPHYSICS state
+        self._sensors = {
+            name: _sensor_slice(self.model, first, last)
+            for name, first, last in (
+                ("torque", f"force_{cpg.LEG_JOINTS[0]}", f"force_{cpg.LEG_JOINTS[-1]}"),
+                ("touch", "touch_l", "touch_r"),
+                ("sole_velocity", "sole_velocity_l", "sole_velocity_r"),
+            )
+        }
         self._local = threading.local()
         self._executor = concurrent.futures.ThreadPoolExecutor(threads) if threads > 1 else None
         qpos = self.model.jnt_qposadr[self.model.joint("root").id]
@@ -183,8 +201,8 @@ class BatchEvaluator:
             local.rollout = rollout.Rollout(nthread=0)
         return local
 
-    def _run_one(self, ctrl: np.ndarray, episode: Episode) -> tuple[float, float, int, int]:
-        """One trajectory: (distance, lateral, fall_step or 0, physics steps).
+    def _run_one(self, ctrl: np.ndarray, episode: Episode, quality: bool = False) -> tuple:
+        """One trajectory: (distance, lateral, fall_step or 0, physics steps, quality or None).
 
         A divergent simulation (MuJoCo's invalid-state warnings, after which MuJoCo resets
         the model to its initial pose) is a fall at the control step where it happened,
@@ -194,36 +212,55 @@ class BatchEvaluator:
         state0 = episode.state
         start = state0[self._root][:2].copy()
         state, warm = state0[None].copy(), np.zeros((1, self.model.nv))
-        last = state0[self._root]
-        simulated = 0
+        last, fall_step, simulated = state0[self._root], 0, 0
+        trace = [] if quality else None
         for begin in range(0, self.steps, self.segment):
             end = min(begin + self.segment, self.steps)
             steps = self._physics_controls(ctrl, episode, begin, end)
-            roots, final, diverged = self._segment(worker, episode.model, steps, state, warm)
+            roots, final, diverged, record = self._segment(
+                worker, episode.model, steps, state, warm
+            )
             simulated += (end - begin) * self.n_sub
             if diverged is not None:
                 roots = roots[:diverged]  # The control steps before the divergent one.
             fallen = np.flatnonzero(darwin.has_fallen(roots))
             if fallen.size:
-                t = int(fallen[0])
-                last = roots[t]
-                return (
-                    float(last[0] - start[0]),
-                    float(last[1] - start[1]),
-                    begin + t + 1,
-                    simulated,
-                )
-            if diverged is not None:
-                last = roots[-1] if len(roots) else last
-                return (
-                    float(last[0] - start[0]),
-                    float(last[1] - start[1]),
-                    begin + diverged + 1,
-                    simulated,
-                )
-            last = roots[-1]
+                fall_step, last = begin + int(fallen[0]) + 1, roots[int(fallen[0])]
+            elif diverged is not None:
+                fall_step, last = begin + diverged + 1, roots[-1] if len(roots) else last
+            else:
+                last = roots[-1]
+            if trace is not None:
+                kept = (fall_step - begin) if fall_step else (end - begin)
+                trace.append(record[: kept * self.n_sub])
+            if fall_step:
+                break
             state, warm = final
-        return float(last[0] - start[0]), float(last[1] - start[1]), 0, simulated
+        distance = float(last[0] - start[0])
+        measures = self._measures(trace, episode, distance) if quality else None
+        return distance, float(last[1] - start[1]), fall_step, simulated, measures
+
+    def _measures(self, trace: list, episode: Episode, distance: float) -> dict:
+        """Gait quality of a trajectory from its recorded physics steps."""
+        record = np.concatenate(trace) if trace else np.zeros((0, self._record_width()))
+        n_legs = len(self._leg_qvel)
+        sensors = record[:, n_legs:]
+        widths = [self._sensors[k].stop - self._sensors[k].start for k in self._sensors]
+        torque, touch, sole = np.split(sensors, np.cumsum(widths)[:-1], axis=1)
+        model = episode.model
+        return gait_quality.measures(
+            record[:, :n_legs],
+            torque,
+            touch,
+            sole.reshape(-1, 2, 3),
+            timestep=float(model.opt.timestep),
+            torque_limit=float(model.actuator_forcerange[0, 1]),
+            mass=float(model.body_subtreemass[self._torso]),
+            distance=distance,
+        )
+
+    def _record_width(self) -> int:
+        return len(self._leg_qvel) + sum(s.stop - s.start for s in self._sensors.values())
 
     def _physics_controls(self, ctrl: np.ndarray, episode: Episode, begin: int, end: int):
         """Per control step of [begin, end): the controls of its physics steps and their spec.
@@ -244,44 +281,48 @@ class BatchEvaluator:
         """Rolls out a segment's control steps from `state`.
 
         Returns:
-          `(roots, (state, warm), diverged)`: the root coordinates after each control step,
-          the state and warm start to continue from, and the index of the control step in
-          which the simulation diverged (None if it did not).
+          `(roots, (state, warm), diverged, record)`: the root coordinates after each
+          control step, the state and warm start to continue from, the index of the control
+          step in which the simulation diverged (None if it did not), and per physics step
+          the leg joint velocities and the quality sensors (`_record_width()` columns).
         """
         controls, spec = steps
         n = len(controls)
-        states = self._rollout(
-            worker, model, state, controls.reshape(1, n * self.n_sub, -1), spec, warm
-        )
+        flat = controls.reshape(1, n * self.n_sub, -1)
+        states, sensordata = self._rollout(worker, model, state, flat, spec, warm)
         roots = states[0, self.n_sub - 1 :: self.n_sub, self._root]
         final = (states[:, -1].copy(), worker.data.qacc_warmstart[None].copy())
-        if not _invalid_state(worker.data) and np.all(np.isfinite(states)):
-            return roots, final, None
-        return roots, final, self._divergent_step(worker, model, steps, state, warm)
+        record = np.concatenate(
+            [states[0][:, self._leg_qvel]] + [sensordata[0][:, s] for s in self._sensors.values()],
+            axis=1,
+        )
+        if not invalid_state(worker.data) and np.all(np.isfinite(states)):
+            return roots, final, None, record
+        return roots, final, self._divergent_step(worker, model, steps, state, warm), record
 
-    def _rollout(self, worker, model, state, controls, spec, warm) -> np.ndarray:
-        _clear_invalid_state_warnings(worker.data)
-        states, _ = worker.rollout.rollout(
+    def _rollout(self, worker, model, state, controls, spec, warm):
+        clear_invalid_state_warnings(worker.data)
+        return worker.rollout.rollout(
             model, worker.data, state, controls, control_spec=spec, initial_warmstart=warm
         )
-        return states
 
     def _divergent_step(self, worker, model, steps, state, warm) -> int:
         """Replays a segment one control step at a time to find the step that diverged."""
         controls, spec = steps
         for t in range(len(controls)):
-            states = self._rollout(worker, model, state, controls[t : t + 1], spec, warm)
-            if _invalid_state(worker.data) or not np.all(np.isfinite(states)):
+            states, _ = self._rollout(worker, model, state, controls[t : t + 1], spec, warm)
+            if invalid_state(worker.data) or not np.all(np.isfinite(states)):
                 return t
             state, warm = states[:, -1].copy(), worker.data.qacc_warmstart[None].copy()
         return len(controls) - 1
 
-    def evaluate(self, amplitudes, seeds=(0,)) -> BatchResult:
+    def evaluate(self, amplitudes, seeds=(0,), quality: bool = False) -> BatchResult:
         """Evaluates every amplitude vector from every initial-state seed.
 
         Args:
           amplitudes: (K, 11) or (11,) amplitudes, degrees.
           seeds: Initial-state seeds, the same for every candidate.
+          quality: Also measure gait quality (`baselines.quality`).
 
         Returns:
           A `BatchResult` with (K, len(seeds)) arrays.
@@ -298,7 +339,7 @@ class BatchEvaluator:
 
         def run(job):
             k, j = job
-            return self._run_one(ctrl[k], episodes[seeds[j]])
+            return self._run_one(ctrl[k], episodes[seeds[j]], quality)
 
         if self._executor is None:
             results = [run(job) for job in jobs]
@@ -306,6 +347,15 @@ class BatchEvaluator:
             results = list(self._executor.map(run, jobs))
         shape = (len(amps), len(seeds))
         out = np.array([r[:3] for r in results]).reshape(shape + (3,))
+        measured = None
+        if quality:
+            measured = {
+                f: np.array([r[4][f] for r in results]).reshape(shape) for f in gait_quality.FIELDS
+            }
         return BatchResult(
-            out[..., 0], out[..., 1], out[..., 2].astype(int), int(sum(r[3] for r in results))
+            out[..., 0],
+            out[..., 1],
+            out[..., 2].astype(int),
+            int(sum(r[3] for r in results)),
+            measured,
         )

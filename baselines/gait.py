@@ -6,6 +6,9 @@ reference that faster evaluators are checked against.
 
 from __future__ import annotations
 
+import json
+import os
+
 import numpy as np
 from dm_control.rl import control as rl_control
 
@@ -78,6 +81,25 @@ def evaluate_gait(
     if error is not None:
         result["error"] = error
     return result
+
+
+def parse_params(text: str) -> np.ndarray:
+    """A preset name or a JSON file of amplitudes -> (11,) degrees.
+
+    Raises:
+      ValueError: Naming the valid presets, or what is wrong with the file.
+    """
+    if text in cpg.PRESETS:
+        return cpg.amplitudes_from(text)
+    if not os.path.isfile(text):
+        raise ValueError(
+            f"--params {text!r} is neither a preset ({', '.join(cpg.PRESETS)}) "
+            "nor an existing JSON file"
+        )
+    try:
+        return cpg.load_amplitudes(text)
+    except (ValueError, json.JSONDecodeError) as e:
+        raise ValueError(f"--params file {text}: {e}") from None
 
 
 def summarize(results: list[dict]) -> dict:

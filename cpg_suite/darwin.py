@@ -308,6 +308,10 @@ class Physics(mujoco.Physics):
         self._accelerometer = sensor("accelerometer")
         self._orientation = sensor("torso_orientation")
         self._touch = slice(sensor("touch_l").start, sensor("touch_r").stop)
+        self._leg_torque = slice(
+            sensor(f"force_{cpg.LEG_JOINTS[0]}").start, sensor(f"force_{cpg.LEG_JOINTS[-1]}").stop
+        )
+        self._sole_velocity = slice(sensor("sole_velocity_l").start, sensor("sole_velocity_r").stop)
         self._leg_range = model.jnt_range[[model.name2id(n, "joint") for n in cpg.LEG_JOINTS]]
         self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
         names = [model.id2name(i, "geom") or "" for i in range(model.ngeom)]
@@ -410,6 +414,10 @@ class Physics(mujoco.Physics):
         """The 12 leg joint velocities, rad/s."""
         return self.data.qvel[self._leg_dof]
 
+    def leg_dofs(self) -> np.ndarray:
+        """The 12 leg joints' addresses in `qvel`."""
+        return self._leg_dof.copy()
+
     def leg_joint_range(self) -> np.ndarray:
         """(12, 2) joint ranges, rad."""
         return self._leg_range.copy()
@@ -486,6 +494,22 @@ class Physics(mujoco.Physics):
     def foot_touch(self) -> np.ndarray:
         """Normal force on the (left, right) sole touch sensors, N."""
         return self.data.sensordata[self._touch].copy()
+
+    def leg_torques(self) -> np.ndarray:
+        """Torques of the 12 leg servos, N·m (`cpg.LEG_JOINTS` order)."""
+        return self.data.sensordata[self._leg_torque].copy()
+
+    def sole_velocities(self) -> np.ndarray:
+        """(2, 3) linear velocities of the (left, right) sole centres in the world, m/s."""
+        return self.data.sensordata[self._sole_velocity].reshape(2, 3).copy()
+
+    def torque_limit(self) -> float:
+        """The servos' torque limit, N·m."""
+        return float(self.model.actuator_forcerange[0, 1])
+
+    def total_mass(self) -> float:
+        """The robot's mass, kg."""
+        return float(self.model.body_subtreemass[self._torso])
 
     def sole_centres(self) -> np.ndarray:
         """(2, 3) centres of the (left, right) soles in the world, m."""

@@ -1,0 +1,348 @@
+r"""The benchmark's score card: what a gait or a policy does on the held-out test tiers.
+
+  python -m baselines.score --params=hand_tuned
+  python -m baselines.score --params=runs/cmaes/darwin_walk/K50_s1_seed0/best_params.json --out=DIR
+
+Per tier (`baselines.protocol.TIERS`), over the 50 test seeds: success-weighted distance (a
+fallen trial scores 0; the score that ranks methods), fall rate, the distance's mean, median
+and interquartile mean, 95 % bootstrap intervals (`scipy.stats.bootstrap`, percentile, a
+fixed generator so a card is reproducible) and a Wilson interval for the fall rate, and the
+gait-quality medians of `baselines.quality`. "all" pools the tiers' trials (equal weight).
+
+Open-loop gaits run on the batched `mujoco.rollout` evaluator; a policy (any callable from
+a dm_env observation to a 12-vector action in [−1, 1]) runs step by step. Both give the
+numbers stepping the environment gives (tested).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Callable
+
+import mujoco
+import numpy as np
+from absl import flags
+from scipy import stats
+
+import cpg_suite
+from baselines import cli, gait, progress, protocol, runs
+from baselines import quality as gait_quality
+from baselines.batch_eval import BatchEvaluator, clear_invalid_state_warnings, invalid_state
+from cpg_suite import cpg
+
+_BOOTSTRAP_RESAMPLES = 2000
+_BOOTSTRAP_SEED = 0
+
+
+@dataclasses.dataclass(frozen=True)
+class ScoreSettings:
+    """What a score card measures.
+
+    Attributes:
+      tiers: The test tiers (comma-separated on the command line).
+      seeds: How many of the 50 test seeds (all for a reported score).
+      steps: Control steps per trial (1000 = 16 s).
+      threads: Evaluator threads (results do not depend on it).
+    """
+
+    tiers: tuple[str, ...] = protocol.TIERS
+    seeds: int = len(protocol.TEST)
+    steps: int = 1000
+    threads: int = 2
+
+    def __post_init__(self):
+        tiers = tuple(self.tiers)
+        object.__setattr__(self, "tiers", tiers)
+        unknown = [t for t in tiers if t not in protocol.TIERS]
+        cli.require(
+            bool(tiers) and not unknown,
+            f"unknown --tiers {unknown or tiers}; valid: {', '.join(protocol.TIERS)}",
+        )
+        cli.require(
+            1 <= self.seeds <= len(protocol.TEST),
+            f"--seeds must lie in [1, {len(protocol.TEST)}], got {self.seeds}",
+        )
+        cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
+        cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
+
+
+def _interval(values: np.ndarray, statistic) -> list[float]:
+    if len(values) < 2 or np.all(values == values[0]):
+        value = float(statistic(values)) if len(values) else float("nan")
+        return [value, value]
+    result = stats.bootstrap(
+        (values,),
+        statistic,
+        confidence_level=0.95,
+        n_resamples=_BOOTSTRAP_RESAMPLES,
+        method="percentile",
+        random_state=np.random.default_rng(_BOOTSTRAP_SEED),
+    )
+    return [float(result.confidence_interval.low), float(result.confidence_interval.high)]
+
+
+def _iqm(values, axis=-1):
+    return stats.trim_mean(values, 0.25, axis=axis)
+
+
+def summarize(distance: np.ndarray, fell: np.ndarray, quality: dict) -> dict:
+    """The statistics of one tier's (or the pooled) trials.
+
+    Args:
+      distance: (n,) forward distances, m.
+      fell: (n,) fall flags.
+      quality: (n,) arrays of `baselines.quality.FIELDS`.
+
+    Returns:
+      `success_weighted_distance_m`, `fall_rate`, `distance_m` (mean, median, iqm) with
+      95 % intervals, `quality` medians, and `n`.
+    """
+    distance, fell = np.asarray(distance, float), np.asarray(fell, bool)
+    success = np.where(fell, 0.0, distance)
+    falls = int(fell.sum())
+    wilson = stats.binomtest(falls, len(fell)).proportion_ci(0.95, method="wilson")
+    return {
+        "n": len(distance),
+        "success_weighted_distance_m": {
+            "mean": float(success.mean()),
+            "ci95": _interval(success, np.mean),
+        },
+        "fall_rate": {"value": falls / len(fell), "ci95": [wilson.low, wilson.high]},
+        "distance_m": {
+            "mean": float(distance.mean()),
+            "ci95": _interval(distance, np.mean),
+            "median": float(np.median(distance)),
+            "iqm": float(_iqm(distance)),
+            "iqm_ci95": _interval(distance, _iqm),
+        },
+        "quality": {
+            f: float(np.nanmedian(v)) if np.isfinite(v).any() else None for f, v in quality.items()
+        },
+    }
+
+
+def _card(per_tier: dict, settings: ScoreSettings, budget: dict) -> dict:
+    pooled = {k: np.concatenate([per_tier[t][k] for t in settings.tiers]) for k in ("d", "f")}
+    pooled_quality = {
+        f: np.concatenate([per_tier[t]["q"][f] for t in settings.tiers])
+        for f in gait_quality.FIELDS
+    }
+    return {
+        "settings": dataclasses.asdict(settings),
+        "seeds": protocol.held_out_seeds(settings.seeds),
+        "tiers": {
+            t: summarize(per_tier[t]["d"], per_tier[t]["f"], per_tier[t]["q"])
+            for t in settings.tiers
+        },
+        "all": summarize(pooled["d"], pooled["f"], pooled_quality),
+        "scoring_sim_steps": budget["sim_steps"],
+    }
+
+
+def score_gait(amplitudes: np.ndarray, settings: ScoreSettings | None = None) -> dict:
+    """The score card of an open-loop CPG gait.
+
+    Args:
+      amplitudes: The 11 CPG amplitudes, degrees.
+      settings: What to measure (default: every tier, all 50 test seeds).
+
+    Returns:
+      The card: per tier and pooled ("all") statistics, the seeds, the settings.
+    """
+    settings = settings or ScoreSettings()
+    seeds = protocol.held_out_seeds(settings.seeds)
+    per_tier, sim_steps = {}, 0
+    for tier in progress.track(settings.tiers, desc="tiers", unit="tier"):
+        with BatchEvaluator(tier, settings.steps, settings.threads) as evaluator:
+            result = evaluator.evaluate(amplitudes, seeds, quality=True)
+        per_tier[tier] = {
+            "d": result.distance_m[0],
+            "f": result.fell[0],
+            "q": {f: v[0] for f, v in result.quality.items()},
+        }
+        sim_steps += result.sim_steps
+    return _card(per_tier, settings, {"sim_steps": sim_steps})
+
+
+def policy_trial(
+    policy: Callable[[dict], np.ndarray], tier: str, seed: int, steps: int = 1000
+) -> dict:
+    """One trial of a policy on a tier, stepping the physics as `control.Environment` does.
+
+    Each control step: the task applies the action (and any push), the physics takes its
+    substeps with `mj_step` (each one's quality sensors recorded, as `mujoco.rollout`
+    records them), then `mj_step1` refreshes positions and velocities for the observation,
+    as dm_control's stepping does. A fall or a divergent state (MuJoCo's invalid-state
+    warnings) ends the trial.
+
+    Args:
+      policy: Maps the task's observation (an ordered dict of arrays) to a (12,) action.
+      tier: A task id of `baselines.protocol.TIERS`.
+      seed: The episode's seed.
+      steps: Control steps.
+
+    Returns:
+      `distance_m`, `lateral_m`, `fell`, `fall_step` (1-based or 0), `sim_steps` and the
+      gait-quality measures under `quality`.
+    """
+    env = cpg_suite.load(tier, task_kwargs={"random": seed, "time_limit": float("inf")})
+    if hasattr(policy, "reset"):
+        policy.reset()
+    time_step = env.reset()
+    physics, task = env.physics, env.task
+    model, data = physics.model.ptr, physics.data.ptr
+    n_sub = int(round(env.control_timestep() / model.opt.timestep))
+    start = last = physics.torso_position()
+    records, fall_step, observation = [], 0, time_step.observation
+    for t in range(steps):
+        task.before_step(policy(observation), physics)
+        clear_invalid_state_warnings(data)
+        for _ in range(n_sub):
+            mujoco.mj_step(model, data)
+            records.append(_record(physics))
+        if invalid_state(data):
+            fall_step = t + 1
+            break
+        mujoco.mj_step1(model, data)
+        task.after_step(physics)
+        last = physics.torso_position()
+        observation = task.get_observation(physics)
+        if physics.fallen():
+            fall_step = t + 1
+            break
+    distance = float(last[0] - start[0])
+    columns = [np.array(c) for c in zip(*records)] if records else [np.zeros((0, 12))] * 4
+    measured = gait_quality.measures(
+        columns[0],
+        columns[1],
+        columns[2].reshape(-1, 2),
+        columns[3].reshape(-1, 2, 3),
+        timestep=float(model.opt.timestep),
+        torque_limit=physics.torque_limit(),
+        mass=physics.total_mass(),
+        distance=distance,
+    )
+    return {
+        "distance_m": distance,
+        "lateral_m": float(last[1] - start[1]),
+        "fell": bool(fall_step),
+        "fall_step": fall_step,
+        "sim_steps": len(records),
+        "quality": measured,
+    }
+
+
+def _record(physics) -> tuple:
+    return (
+        physics.leg_joint_velocities(),
+        physics.leg_torques(),
+        physics.foot_touch(),
+        physics.sole_velocities(),
+    )
+
+
+def score_policy(
+    policy: Callable[[dict], np.ndarray], settings: ScoreSettings | None = None
+) -> dict:
+    """The score card of a policy (closed- or open-loop), stepping each trial.
+
+    Args:
+      policy: Maps the task's observation to a (12,) action in [−1, 1]. If it has a
+        `reset()` method, that is called before each trial.
+      settings: What to measure (default: every tier, all 50 test seeds; `threads` unused).
+
+    Returns:
+      The card, as `score_gait`.
+    """
+    settings = settings or ScoreSettings()
+    per_tier, sim_steps = {}, 0
+    for tier in settings.tiers:
+        trials = [
+            policy_trial(policy, tier, seed, settings.steps)
+            for seed in progress.track(protocol.held_out_seeds(settings.seeds), desc=tier)
+        ]
+        per_tier[tier] = {
+            "d": np.array([r["distance_m"] for r in trials]),
+            "f": np.array([r["fell"] for r in trials]),
+            "q": {f: np.array([r["quality"][f] for r in trials]) for f in gait_quality.FIELDS},
+        }
+        sim_steps += sum(r["sim_steps"] for r in trials)
+    return _card(per_tier, settings, {"sim_steps": sim_steps})
+
+
+class OpenLoopPolicy:
+    """An open-loop CPG gait as a policy: the CPG's targets, one per call since `reset()`."""
+
+    def __init__(self, amplitudes: np.ndarray, steps: int = 1000):
+        self._actions = None
+        self._amplitudes = np.asarray(amplitudes, dtype=np.float64)
+        self._steps = steps
+        self._t = 0
+
+    def __call__(self, observation: dict) -> np.ndarray:
+        if self._actions is None:
+            env = cpg_suite.load("darwin_walk")
+            targets = cpg.trajectories(self._amplitudes, self._steps, env.control_timestep())
+            self._actions = env.physics.targets_to_action(targets[0])
+        action = self._actions[self._t % self._steps]
+        self._t += 1
+        return action
+
+    def reset(self) -> None:
+        """Starts the pattern again (call before each trial)."""
+        self._t = 0
+
+
+def format_card(card: dict) -> str:
+    """The card as a fixed-width table, one line per tier and one for all tiers."""
+    lines = [
+        f"{'tier':<24} {'success-weighted m [95% CI]':>30} {'falls':>7} "
+        f"{'median m':>9} {'IQM m':>7} {'CoT':>6} {'slip/m':>7} {'sat.':>6} {'peak rad/s':>10}"
+    ]
+    for name, row in [*card["tiers"].items(), ("all", card["all"])]:
+        swd, q = row["success_weighted_distance_m"], row["quality"]
+        lines.append(
+            f"{name:<24} {swd['mean']:>8.3f} [{swd['ci95'][0]:.3f}, {swd['ci95'][1]:.3f}]"
+            f"{'':>5} {row['fall_rate']['value']:>7.1%} {row['distance_m']['median']:>9.3f} "
+            f"{row['distance_m']['iqm']:>7.3f} {_fmt(q['cost_of_transport']):>6} "
+            f"{_fmt(q['slip_per_m']):>7} {_fmt(q['torque_limit_share'], '.1%'):>6} "
+            f"{_fmt(q['peak_joint_speed'], '.2f'):>10}"
+        )
+    return "\n".join(lines)
+
+
+def _fmt(value, spec: str = ".2f") -> str:
+    return "n/a" if value is None else format(value, spec)
+
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    d = ScoreSettings()
+    flags.DEFINE_string("params", "hand_tuned", f"Preset ({', '.join(cpg.PRESETS)}) or JSON.")
+    flags.DEFINE_list("tiers", list(d.tiers), f"Test tiers: {', '.join(protocol.TIERS)}.")
+    flags.DEFINE_integer("seeds", d.seeds, "How many of the 50 test seeds.")
+    flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")
+    flags.DEFINE_integer("threads", d.threads, "Evaluator threads (results do not depend on it).")
+    flags.DEFINE_string("out", None, "Directory for score.json (default: print only).")
+
+
+def main(argv):
+    del argv
+    settings = cli.settings_from_flags(ScoreSettings)
+    try:
+        amplitudes = gait.parse_params(flags.FLAGS.params)
+    except ValueError as e:
+        raise cli.UsageError(str(e)) from None
+    card = {"params": flags.FLAGS.params, **score_gait(amplitudes, settings)}
+    print(format_card(card))
+    if flags.FLAGS.out:
+        os.makedirs(flags.FLAGS.out, exist_ok=True)
+        path = os.path.join(flags.FLAGS.out, "score.json")
+        runs.write_json(path, card)
+        print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    define_flags()
+    cli.run(main)

@@ -1,0 +1,100 @@
+"""The score card: seeds of the protocol, statistics, batched and step-by-step agreement."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from baselines import protocol, score
+from baselines.gait import evaluate_gait
+from cpg_suite import cpg
+
+
+def test_seed_ranges_are_disjoint_and_training_refuses_the_others():
+    assert max(protocol.TRAINING) < min(protocol.VALIDATION)
+    assert max(protocol.VALIDATION) < min(protocol.TEST)
+    assert len(protocol.held_out_seeds()) == 50
+    assert protocol.check_training([0, 5, 999_999]) == [0, 5, 999_999]
+    with pytest.raises(ValueError, match="validation seed"):
+        protocol.check_training([3, protocol.VALIDATION.start])
+    with pytest.raises(ValueError, match="test seed"):
+        protocol.check_training([protocol.TEST.start + 7])
+
+
+def test_summary_statistics_known_answers():
+    distance = np.array([1.0, 2.0, 3.0, 4.0, -1.0, 10.0, 2.0, 2.0])
+    fell = np.array([False, False, True, False, False, True, False, False])
+    quality = {f: np.full(8, 0.5) for f in score.gait_quality.FIELDS}
+    row = score.summarize(distance, fell, quality)
+    success = [1.0, 2.0, 0.0, 4.0, -1.0, 0.0, 2.0, 2.0]
+    assert row["success_weighted_distance_m"]["mean"] == pytest.approx(np.mean(success))
+    low, high = row["success_weighted_distance_m"]["ci95"]
+    assert low < np.mean(success) < high
+    assert row["fall_rate"]["value"] == 0.25
+    assert row["distance_m"]["median"] == 2.0
+    assert row["distance_m"]["iqm"] == pytest.approx(np.mean([2.0, 2.0, 2.0, 3.0]))
+    assert row["quality"]["flight_share"] == 0.5
+    again = score.summarize(distance, fell, quality)
+    assert again == row  # the bootstrap generator is fixed
+
+
+@pytest.mark.parametrize("tier", protocol.TIERS)
+def test_policy_stepping_equals_the_batched_gait_and_the_environment(tier):
+    settings = score.ScoreSettings(tiers=(tier,), seeds=2, steps=250, threads=2)
+    amps = cpg.amplitudes_from("hand_tuned") + np.linspace(-4, 4, 11)
+    batched = score.score_gait(amps, settings)
+    stepped = score.score_policy(score.OpenLoopPolicy(amps, 250), settings)
+    assert json.dumps(batched["tiers"], sort_keys=True) == json.dumps(
+        stepped["tiers"], sort_keys=True
+    )
+    trial = score.policy_trial(score.OpenLoopPolicy(amps, 250), tier, protocol.TEST.start, 250)
+    reference = evaluate_gait(amps, protocol.TEST.start, task=tier, steps=250)
+    assert trial["distance_m"] == reference["distance_m"]
+    assert trial["fall_step"] == (reference["fall_step"] or 0)
+
+
+def test_card_is_the_same_for_one_and_two_threads():
+    amps = cpg.amplitudes_from("hand_tuned")
+    one = score.score_gait(amps, score.ScoreSettings(seeds=3, steps=200, threads=1))
+    two = score.score_gait(amps, score.ScoreSettings(seeds=3, steps=200, threads=2))
+    assert one["tiers"] == two["tiers"] and one["all"] == two["all"]
+
+
+def _cli(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "baselines.score", *args],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+
+
+def test_cli_writes_score_json(tmp_path):
+    out = _cli(
+        "--params=hand_tuned",
+        "--seeds=2",
+        "--steps=100",
+        "--tiers=darwin_walk",
+        f"--out={tmp_path}",
+    )
+    assert out.returncode == 0, out.stderr
+    card = json.loads((tmp_path / "score.json").read_text())
+    assert set(card["tiers"]) == {"darwin_walk"} and card["seeds"] == [2_000_000, 2_000_001]
+    assert "darwin_walk" in out.stdout
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--tiers=darwin_run"], "unknown --tiers"),
+        (["--seeds=51"], "--seeds"),
+        (["--params=nope"], "neither a preset"),
+    ],
+)
+def test_cli_bad_input(args, words):
+    out = _cli(*args)
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and words in lines[0]
