@@ -25,11 +25,11 @@ from typing import Protocol
 import numpy as np
 from absl import flags
 
-from baselines import cli, progress, runs
+from baselines import cli, progress, protocol, runs, score
 from baselines.batch_eval import BatchEvaluator, BatchResult
 from cpg_suite import cpg
 
-TASKS = ("darwin_walk",)
+TASKS = protocol.TIERS  # Optimizers may train on any tier.
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,6 +45,12 @@ class OptimizerSettings:
       eval_seeds: Initial states each candidate is scored on (seeds 0..N-1), every round.
       fall_penalty: Cost of a fall, m.
       lateral_penalty: Cost per metre of lateral displacement.
+      fresh_starts: Draw `eval_seeds` new training seeds every round (the same for all the
+        round's candidates) instead of reusing seeds 0..N-1 (the study's setting).
+      validation_seeds: Validation seeds the reported gait is selected on.
+      validation_every: Rounds between validation scores of the mean (0: none).
+      validation_top: In-sample best candidates re-scored on validation with the final mean.
+      test_seeds: Test seeds per tier the selected gait is scored on at the end (0: none).
     """
 
     task: str = "darwin_walk"
@@ -55,6 +61,11 @@ class OptimizerSettings:
     eval_seeds: int = 1
     fall_penalty: float = 10.0
     lateral_penalty: float = 0.0
+    fresh_starts: bool = False
+    validation_seeds: int = 10
+    validation_every: int = 10
+    validation_top: int = 3
+    test_seeds: int = len(protocol.TEST)
 
     def __post_init__(self):
         require = cli.require
@@ -67,6 +78,21 @@ class OptimizerSettings:
         require(self.fall_penalty >= 0, f"--fall_penalty must be ≥ 0, got {self.fall_penalty}")
         require(
             self.lateral_penalty >= 0, f"--lateral_penalty must be ≥ 0, got {self.lateral_penalty}"
+        )
+        require(
+            self.validation_seeds >= 1,
+            f"--validation_seeds must be ≥ 1, got {self.validation_seeds}",
+        )
+        require(
+            self.validation_every >= 0,
+            f"--validation_every must be ≥ 0, got {self.validation_every}",
+        )
+        require(
+            self.validation_top >= 0, f"--validation_top must be ≥ 0, got {self.validation_top}"
+        )
+        require(
+            0 <= self.test_seeds <= len(protocol.TEST),
+            f"--test_seeds must lie in [0, {len(protocol.TEST)}], got {self.test_seeds}",
         )
 
 
@@ -104,6 +130,21 @@ def define_flags() -> None:
     flags.DEFINE_float(
         "lateral_penalty", d.lateral_penalty, "Cost per metre of lateral displacement."
     )
+    flags.DEFINE_bool(
+        "fresh_starts", d.fresh_starts, "New training seeds every round (common to the round)."
+    )
+    flags.DEFINE_integer(
+        "validation_seeds", d.validation_seeds, "Validation seeds for selecting the gait."
+    )
+    flags.DEFINE_integer(
+        "validation_every", d.validation_every, "Rounds between validation scores (0: none)."
+    )
+    flags.DEFINE_integer(
+        "validation_top", d.validation_top, "In-sample best candidates re-scored on validation."
+    )
+    flags.DEFINE_integer(
+        "test_seeds", d.test_seeds, "Test seeds per tier for the final score (0: none)."
+    )
     o = runs.RunOptions()
     flags.DEFINE_integer("threads", o.threads, "Evaluator threads (results do not depend on it).")
     flags.DEFINE_string("output_dir", o.output_dir, "Root of the output tree.")
@@ -126,6 +167,7 @@ PROGRESS_FIELDS = [
     "sim_steps",
     "steps_per_s",
     "wall_s",
+    "validation_m",
 ]
 
 
@@ -168,6 +210,7 @@ class _RunState:
     )
     best: dict = dataclasses.field(default_factory=lambda: {"cost": np.inf})
     rows: list = dataclasses.field(default_factory=list)
+    top: list = dataclasses.field(default_factory=list)  # in-sample best, for selection
 
     def to_json(self, identity: dict, optimizer: Optimizer) -> dict:
         return {
@@ -175,8 +218,23 @@ class _RunState:
             "totals": self.totals,
             "best": self.best,
             "rows": self.rows,
+            "top": self.top,
             "optimizer": optimizer.state_dict(),
         }
+
+    def keep_top(self, samples: np.ndarray, costs: np.ndarray, k: int) -> None:
+        """Keeps the `k` cheapest distinct candidates seen so far (finite costs only)."""
+        entries = self.top + [
+            {"cost": float(c), "params": x.tolist()}
+            for x, c in zip(samples, costs)
+            if np.isfinite(c)
+        ]
+        entries.sort(key=lambda e: e["cost"])
+        kept = []
+        for entry in entries:
+            if len(kept) < k and all(entry["params"] != e["params"] for e in kept):
+                kept.append(entry)
+        self.top = kept
 
 
 def _read_checkpoint(path: str, identity: dict) -> dict:
@@ -200,7 +258,7 @@ def _restore(path: str, identity: dict, optimizer: Optimizer, resume: bool) -> _
     optimizer.load_state_dict(checkpoint["optimizer"])
     best = checkpoint["best"]
     best["cost"] = float(best["cost"])
-    return _RunState(checkpoint["totals"], best, checkpoint["rows"])
+    return _RunState(checkpoint["totals"], best, checkpoint["rows"], checkpoint["top"])
 
 
 def _record_round(
@@ -299,6 +357,52 @@ def _finish(
     return summary
 
 
+def round_seeds(settings: OptimizerSettings, round_number: int) -> list[int]:
+    """The training seeds of a round (1-based; `rounds + 1` for the final mean's trial).
+
+    The study's setting reuses seeds 0..eval_seeds-1; with `fresh_starts` each round draws
+    its own from the training range with a generator keyed by (seed, round).
+    """
+    if not settings.fresh_starts:
+        return list(range(settings.eval_seeds))
+    rng = np.random.default_rng([settings.seed, round_number])
+    draws = rng.integers(protocol.TRAINING.start, protocol.TRAINING.stop, settings.eval_seeds)
+    return protocol.check_training(draws)
+
+
+def validation_score(
+    evaluator: BatchEvaluator, candidates: np.ndarray, settings: OptimizerSettings
+) -> tuple[np.ndarray, int]:
+    """Mean success-weighted distance (a fall scores 0) of each candidate on the
+    validation seeds; and the physics steps it took."""
+    result = evaluator.evaluate(candidates, protocol.validation_seeds(settings.validation_seeds))
+    return np.where(result.fell, 0.0, result.distance_m).mean(axis=1), result.sim_steps
+
+
+def _train_round(optimizer, evaluator, settings, state, has_mean) -> tuple[dict, int]:
+    """One round: ask, evaluate from the round's training seeds, tell, record."""
+    start = time.perf_counter()
+    seeds = round_seeds(settings, state.totals["round"] + 1)
+    samples = optimizer.ask()
+    result = evaluator.evaluate(samples, seeds)
+    costs = trial_costs(result, settings.fall_penalty, settings.lateral_penalty)
+    optimizer.tell(samples, costs)
+    state.keep_top(samples, costs, settings.validation_top)
+    row = _record_round(
+        state, samples, result, costs, optimizer.sigma, has_mean, time.perf_counter() - start
+    )
+    return row, len(samples) * len(seeds)
+
+
+def _validate_mean(optimizer, evaluator, settings, state, row) -> None:
+    """Adds the mean's validation score to the row every `validation_every` rounds."""
+    every = settings.validation_every
+    if every and (row["round"] % every == 0 or row["round"] == settings.rounds):
+        value, steps = validation_score(evaluator, optimizer.mean[None], settings)
+        row["validation_m"] = float(value[0])
+        state.totals["validation_sim_steps"] = state.totals.get("validation_sim_steps", 0) + steps
+
+
 def run_rounds(
     optimizer: Optimizer,
     evaluator: BatchEvaluator,
@@ -306,20 +410,24 @@ def run_rounds(
     settings: OptimizerSettings,
     *,
     resume: bool = False,
+    threads: int = 2,
     log: Callable[[str], None] = progress.write,
 ) -> dict:
     """Runs the optimizer for `settings.rounds` rounds and writes the run files.
 
-    Each round: ask → evaluate every candidate from the same initial states → cost →
-    tell → record the best → progress row → checkpoint. Then the final mean is tried once.
+    Each round: ask → evaluate every candidate from the round's training seeds → cost →
+    tell → record the best → (validation score of the mean) → progress row → checkpoint.
+    Then: the final mean is tried once; the reported gait is selected on validation seeds
+    among the final mean and the in-sample best; it is scored on the test tiers.
 
     Args:
       optimizer: See `Optimizer`; `first_sample_is_mean = True` when `ask()` puts the
         current mean first (then its trial is logged as the mean vector's).
-      evaluator: The batched evaluator.
+      evaluator: The batched evaluator of the training task.
       run_dir: The run directory (already created, with config.json).
       settings: The run's settings; all of them must match to resume.
       resume: Continue from `checkpoint.json` if present.
+      threads: Threads of the test scoring.
       log: Receives one line per round.
 
     Returns:
@@ -331,7 +439,6 @@ def run_rounds(
     identity = dataclasses.asdict(settings)
     checkpoint_path = os.path.join(run_dir, "checkpoint.json")
     state = _restore(checkpoint_path, identity, optimizer, resume)
-    eval_seeds = list(range(settings.eval_seeds))
     has_mean = bool(getattr(optimizer, "first_sample_is_mean", False))
     # progress.csv is rewritten from the checkpoint's rows: a row written after the last
     # checkpoint (a kill between the two writes) is dropped and recomputed.
@@ -340,21 +447,52 @@ def run_rounds(
             rows_file.append(row)
         pending = range(state.totals["round"], settings.rounds)
         for _ in progress.track(pending, desc=os.path.basename(run_dir), unit="round"):
-            start = time.perf_counter()
-            samples = optimizer.ask()
-            result = evaluator.evaluate(samples, eval_seeds)
-            costs = trial_costs(result, settings.fall_penalty, settings.lateral_penalty)
-            optimizer.tell(samples, costs)
-            elapsed = time.perf_counter() - start
-            row = _record_round(state, samples, result, costs, optimizer.sigma, has_mean, elapsed)
+            row, trials = _train_round(optimizer, evaluator, settings, state, has_mean)
+            _validate_mean(optimizer, evaluator, settings, state, row)
             state.rows.append(row)
             rows_file.append(row)
             runs.write_json(checkpoint_path, state.to_json(identity, optimizer))
-            log(round_line(row, len(samples) * len(eval_seeds)))
+            log(round_line(row, trials))
     # The final mean has not been tried by the algorithm itself (thesis Sec. 6.3): try it.
     start = time.perf_counter()
-    final = evaluator.evaluate(optimizer.mean, eval_seeds)
-    return _finish(run_dir, state, optimizer, final, time.perf_counter() - start)
+    final = evaluator.evaluate(optimizer.mean, round_seeds(settings, settings.rounds + 1))
+    summary = _finish(run_dir, state, optimizer, final, time.perf_counter() - start)
+    summary.update(_select_and_test(run_dir, state, optimizer, evaluator, settings, threads, log))
+    runs.write_json(os.path.join(run_dir, "summary.json"), summary)
+    return summary
+
+
+def _select_and_test(run_dir, state, optimizer, evaluator, settings, threads, log) -> dict:
+    """Selects the reported gait on validation seeds and scores it on the test tiers."""
+    names = ["final_mean"] + [f"in_sample_{i + 1}" for i in range(len(state.top))]
+    candidates = np.array([optimizer.mean] + [e["params"] for e in state.top])
+    values, steps = validation_score(evaluator, candidates, settings)
+    k = int(np.argmax(values))  # ties go to the final mean
+    selected = {
+        "source": names[k],
+        "validation_success_weighted_m": float(values[k]),
+        "validation_seeds": settings.validation_seeds,
+        "candidates": dict(zip(names, (float(v) for v in values))),
+    }
+    runs.write_json(
+        os.path.join(run_dir, "selected_params.json"),
+        {**_amplitudes_json(candidates[k]), "source": names[k]},
+    )
+    out = {
+        "selected": selected,
+        "validation_sim_steps": state.totals.get("validation_sim_steps", 0) + steps,
+    }
+    if settings.test_seeds:
+        card = score.score_gait(
+            candidates[k],
+            score.ScoreSettings(
+                seeds=settings.test_seeds, steps=settings.trial_steps, threads=threads
+            ),
+        )
+        out["test"] = {k2: card[k2] for k2 in ("tiers", "all", "scoring_sim_steps")}
+        log(f"selected gait: {names[k]} (validation {values[k]:+.3f} m); test score card:")
+        log(score.format_card(card))
+    return out
 
 
 def run_optimizer(
@@ -405,7 +543,13 @@ def run_optimizer(
         runs.write_config(run_dir, settings, command)
     with BatchEvaluator(settings.task, settings.trial_steps, options.threads) as evaluator:
         summary = run_rounds(
-            optimizer, evaluator, run_dir, settings, resume=options.resume, log=log
+            optimizer,
+            evaluator,
+            run_dir,
+            settings,
+            resume=options.resume,
+            threads=options.threads,
+            log=log,
         )
     return run_dir, summary
 
@@ -413,11 +557,20 @@ def run_optimizer(
 def summary_line(run_dir: str, summary: dict) -> str:
     """One line describing a finished run."""
     fell = " (fell)" if summary["final_mean_fell"] else ""
-    return (
-        f"{run_dir}: best {summary['best_distance_m']:+.3f} m in round "
+    line = (
+        f"{run_dir}: in-sample best {summary['best_distance_m']:+.3f} m in round "
         f"{summary['best_round']}, final mean {summary['final_mean_distance_m']:+.3f} m{fell}, "
         f"falls {summary['falls_total']}/{summary['evaluations']}, {summary['wall_s']:.0f} s"
     )
+    if "test" in summary:
+        test = summary["test"]["all"]
+        swd = test["success_weighted_distance_m"]
+        line += (
+            f"; test score (all tiers, {summary['selected']['source']}) {swd['mean']:+.3f} m "
+            f"[{swd['ci95'][0]:+.3f}, {swd['ci95'][1]:+.3f}], falls "
+            f"{test['fall_rate']['value']:.1%}"
+        )
+    return line
 
 
 def run_jobs(

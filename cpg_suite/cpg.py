@@ -335,7 +335,12 @@ class CPG:
         cfg = self.config
         basis = primitive_basis(self.phases(t), cfg.omega, cfg)  # (11, 12)
         ramp = smoothstep(t / cfg.ramp_time) if cfg.ramp_time > 0 else 1.0
-        rates = ramp * (self.amplitudes @ basis)  # (K, 12)
+        # Σₚ Aₚ basisₚ in a fixed order (not a BLAS product, whose last bit depends on the
+        # CPU's kernel).
+        combined = np.zeros((len(self.amplitudes), basis.shape[-1]))
+        for p in range(basis.shape[0]):
+            combined += self.amplitudes[:, p, None] * basis[p]
+        rates = ramp * combined  # (K, 12)
         for leg in (0, 1):
             rates[:, 6 * leg + HROLL] += self.roll_input[:, leg]
             rates[:, 6 * leg + AROLL] += self.roll_input[:, leg]

@@ -608,12 +608,19 @@ class Physics(mujoco.Physics):
         self.after_reset()
 
     def _lowest_corner(self, geom: int) -> float:
+        """Height of a box geom's lowest corner, m.
+
+        Written out element by element rather than as a matrix product: BLAS kernels differ
+        between CPUs in their last bit, and this height places the robot at every reset.
+        """
         half = self.model.geom_size[geom]
+        rot = self.data.geom_xmat[geom].reshape(3, 3)
         corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-        world = (
-            self.data.geom_xpos[geom] + (corners * half) @ self.data.geom_xmat[geom].reshape(3, 3).T
-        )
-        return float(world[:, 2].min())
+        local = corners * half
+        z = self.data.geom_xpos[geom, 2] + local[:, 0] * rot[2, 0]
+        z = z + local[:, 1] * rot[2, 1]
+        z = z + local[:, 2] * rot[2, 2]
+        return float(z.min())
 
     # Actions.
     def targets_to_action(self, angles: np.ndarray) -> np.ndarray:

@@ -77,7 +77,16 @@ def test_invalid_configuration():
 
 
 def _settings(**kw):
-    base = dict(population=4, elite=2, noise=0.8, rounds=3, trial_steps=120, fall_penalty=1.0)
+    base = dict(
+        population=4,
+        elite=2,
+        noise=0.8,
+        rounds=3,
+        trial_steps=120,
+        fall_penalty=1.0,
+        validation_seeds=2,
+        test_seeds=2,
+    )
     return cem.CEMSettings(**{**base, **kw})
 
 
@@ -196,7 +205,13 @@ def test_cli_bad_flags(tmp_path, args, words):
 
 
 def test_cli_run_and_refusal_to_overwrite(tmp_path):
-    args = ("--population=3", "--rounds=1", "--trial_steps=50", f"--output_dir={tmp_path}")
+    args = (
+        "--population=3",
+        "--rounds=1",
+        "--trial_steps=50",
+        "--test_seeds=2",
+        f"--output_dir={tmp_path}",
+    )
     out = _cli(*args)
     assert out.returncode == 0, out.stderr
     assert "round   1" in out.stdout
@@ -207,7 +222,9 @@ def test_cli_run_and_refusal_to_overwrite(tmp_path):
 def test_cmaes_runs_resumes_and_is_thread_independent(tmp_path):
     from baselines import cmaes
 
-    settings = cmaes.CMAESSettings(population=4, rounds=3, trial_steps=120, fall_penalty=1.0)
+    settings = cmaes.CMAESSettings(
+        population=4, rounds=3, trial_steps=120, fall_penalty=1.0, validation_seeds=2, test_seeds=2
+    )
     _, full = cmaes.run_cmaes(settings, _options(tmp_path / "a", threads=1), log=lambda x: None)
     _, two = cmaes.run_cmaes(settings, _options(tmp_path / "b", threads=2), log=lambda x: None)
     assert _without_wall(full) == _without_wall(two)
@@ -244,7 +261,7 @@ def test_config_command_reruns_the_run(tmp_path):
     import shlex
     import shutil
 
-    args = ("--population=3", "--rounds=2", "--trial_steps=60", "--seed=4")
+    args = ("--population=3", "--rounds=2", "--trial_steps=60", "--seed=4", "--test_seeds=2")
     out = _cli(*args, f"--output_dir={tmp_path}", "--run_name=r")
     assert out.returncode == 0, out.stderr
     run_dir = tmp_path / "cem" / "darwin_walk" / "r"
@@ -253,7 +270,7 @@ def test_config_command_reruns_the_run(tmp_path):
     command = shlex.split(config["command"])
     assert command[:3] == ["python", "-m", "baselines.cem"]
     assert config["settings"] == dataclasses.asdict(
-        cem.CEMSettings(population=3, rounds=2, trial_steps=60, seed=4)
+        cem.CEMSettings(population=3, rounds=2, trial_steps=60, seed=4, test_seeds=2)
     )
     shutil.rmtree(run_dir)
     again = subprocess.run(

@@ -56,6 +56,7 @@ from cpg_suite import cpg, darwin
 targets = cpg.trajectories(cpg.PRESETS["hand_tuned"], 1000, darwin.CONTROL_TIMESTEP)
 out = {"cpg_sha256": hashlib.sha256(targets.tobytes()).hexdigest()}
 base = dict(population=6, rounds=3, trial_steps=150, fall_penalty=10.0)
+base.update(validation_seeds=2, test_seeds=2)
 for name, run, settings in (
     ("cem", cem.run_cem, cem.CEMSettings(elite=2, noise=0.8, **base)),
     ("cmaes", cmaes.run_cmaes, cmaes.CMAESSettings(**base)),
