@@ -25,6 +25,7 @@ import argparse
 import csv
 import json
 import os
+import subprocess
 import sys
 from collections import defaultdict
 
@@ -240,35 +241,49 @@ def _best_gait_file(found: list[dict]) -> tuple[str | None, float]:
 
 
 def gaits(found: list[dict], out: str) -> str | None:
-    """Filmstrips of the hand-tuned and the best gait, one above the other, and videos."""
+    """Filmstrips of the hand-tuned and the best gait, one above the other, and videos.
+
+    The simulation and rendering run in their own program, `python -m cpg_suite.explore`
+    (analysis only reads files): it writes each gait's video and filmstrip into `out`, and
+    this function stacks the two filmstrips into one sheet.
+    """
     path, distance = _best_gait_file(found)
     if path is None:
         return None
-    from PIL import Image
+    from PIL import Image, ImageDraw
 
-    from cpg_suite import cpg, explore
+    from cpg_suite import cpg
 
-    try:
-        best = cpg.load_amplitudes(path)
-    except (ValueError, OSError, json.JSONDecodeError):
-        return None
+    hand_tuned = dict(zip(cpg.AMPLITUDE_NAMES, cpg.amplitudes_from("hand_tuned").tolist()))
+    with open(path, encoding="utf-8") as f:
+        best = json.load(f)
     strips = []
-    for name, amps in (("hand_tuned", cpg.amplitudes_from("hand_tuned")), ("best", best)):
-        frames, times, _ = explore.render_gait(
-            "darwin_walk", amps, cameras=("side",), width=200, height=248
-        )
-        explore.write_video(frames[0], os.path.join(out, f"gait_{name}"), 1 / (0.016 * 2))
-        label = "hand-tuned" if name == "hand_tuned" else f"best, {distance:.2f} m"
-        strips.append(
-            explore.filmstrip(
-                frames[0], times, 8, label, start=8.0, step=cpg.CPGConfig().stride_period / 4
-            )
-        )
+    for name, amplitudes in (("gait_hand_tuned", {"amplitudes": hand_tuned}), ("gait_best", best)):
+        params = os.path.join(out, f"{name}.json")
+        with open(params, "w", encoding="utf-8") as f:
+            json.dump(amplitudes, f)
+        command = [
+            sys.executable,
+            "-m",
+            "cpg_suite.explore",
+            f"--params={params}",
+            f"--out={out}",
+            "--camera=side",
+            "--width=200",
+            "--height=248",
+            "--strip_start=8.0",
+        ]
+        done = subprocess.run(command, capture_output=True, text=True, check=False)
+        if done.returncode != 0:
+            raise RuntimeError(f"rendering {params} failed: {done.stderr.strip()[-500:]}")
+        strips.append(Image.open(os.path.join(out, f"{name}_filmstrip.png")).convert("RGB"))
     width = max(s.width for s in strips)
     sheet = Image.new("RGB", (width, sum(s.height for s in strips)), (20, 22, 26))
-    y = 0
-    for strip in strips:
+    draw, y = ImageDraw.Draw(sheet), 0
+    for strip, label in zip(strips, ("hand-tuned", f"best, {distance:.2f} m")):
         sheet.paste(strip, (0, y))
+        draw.rectangle([width - 136, y, width, y + 22], fill=(20, 22, 26))
+        draw.text((width - 8 * len(label) - 6, y + 5), label, fill=(250, 200, 120))
         y += strip.height
     target = os.path.join(out, "gaits_filmstrip.png")
     sheet.save(target)

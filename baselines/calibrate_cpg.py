@@ -28,15 +28,20 @@ from baselines import cli
 from baselines.gait import evaluate_gait
 from cpg_suite import cpg
 
-_OUTPUT = flags.DEFINE_string("output", "runs/calibration.csv", "CSV of trials (appended).")
-_PERIODS = flags.DEFINE_string("periods", "0.8,1.1,1.4", "Stride periods, s.")
-_BETAS = flags.DEFINE_string("betas", "4,8,16", "Relaxation rates β, 1/s.")
-_CROUCHES = flags.DEFINE_string("crouches", "15,23,30", "Standing knee flexion, degrees.")
-_GAINS = flags.DEFINE_string("gains", "20,40,80", "Servo gains kp, N·m/rad.")
-_PARAMS = flags.DEFINE_string("params", "hand_tuned,table6_1,table6_2", "Amplitude presets.")
-_SEEDS = flags.DEFINE_integer("seeds", 3, "Initial-state seeds per setting (0..N-1).")
-_PROCESSES = flags.DEFINE_integer("processes", 2, "Worker processes.")
-_RESUME = flags.DEFINE_bool("resume", False, "Skip trials already in --output.")
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    global _OUTPUT, _PERIODS, _BETAS, _CROUCHES, _GAINS, _PARAMS, _SEEDS, _PROCESSES, _RESUME
+    _OUTPUT = flags.DEFINE_string("output", "runs/calibration.csv", "CSV of trials (appended).")
+    _PERIODS = flags.DEFINE_string("periods", "0.8,1.1,1.4", "Stride periods, s.")
+    _BETAS = flags.DEFINE_string("betas", "4,8,16", "Relaxation rates β, 1/s.")
+    _CROUCHES = flags.DEFINE_string("crouches", "15,23,30", "Standing knee flexion, degrees.")
+    _GAINS = flags.DEFINE_string("gains", "20,40,80", "Servo gains kp, N·m/rad.")
+    _PARAMS = flags.DEFINE_string("params", "hand_tuned,table6_1,table6_2", "Amplitude presets.")
+    _SEEDS = flags.DEFINE_integer("seeds", 3, "Initial-state seeds per setting (0..N-1).")
+    _PROCESSES = flags.DEFINE_integer("processes", 2, "Worker processes.")
+    _RESUME = flags.DEFINE_bool("resume", False, "Skip trials already in --output.")
+
 
 FIELDS = [
     "period",
@@ -139,4 +144,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+    define_flags()
     cli.run(main)

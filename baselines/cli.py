@@ -12,7 +12,7 @@ import sys
 from collections.abc import Callable
 from typing import TypeVar
 
-from absl import app, flags
+from absl import flags
 
 _Settings = TypeVar("_Settings")
 
@@ -37,7 +37,12 @@ def _parse_flags(argv: list[str]) -> list[str]:
 
 
 def run(main: Callable[[list[str]], None]) -> None:
-    """`absl.app.run(main)` with one-line errors and exit code 2 for bad input."""
+    """`absl.app.run(main)` with one-line errors and exit code 2 for bad input.
+
+    `absl.app` defines flags of its own when imported, so it is imported here, by the
+    program that runs, not by the modules that merely import this one.
+    """
+    from absl import app
 
     def wrapped(argv: list[str]) -> None:
         if len(argv) > 1:

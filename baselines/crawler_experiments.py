@@ -32,10 +32,15 @@ from absl import flags
 from baselines import cli, runs
 from baselines.tabular import models, planning, runner
 
-_OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs/crawler", "Root of the output tree.")
-_SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration (0..N-1).")
-_MOVES = flags.DEFINE_integer("moves", 1000, "Learning moves of the real-time runs.")
-_RESUME = flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    global _OUTPUT_DIR, _SEEDS, _MOVES, _RESUME
+    _OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs/crawler", "Root of the output tree.")
+    _SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration (0..N-1).")
+    _MOVES = flags.DEFINE_integer("moves", 1000, "Learning moves of the real-time runs.")
+    _RESUME = flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
+
 
 REALTIME = (
     "value_iteration",
@@ -259,4 +264,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+    define_flags()
     cli.run(main)

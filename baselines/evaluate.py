@@ -22,14 +22,20 @@ from baselines.batch_eval import BatchEvaluator
 from baselines.gait import DARWIN_TASKS, evaluate_gait, summarize
 from cpg_suite import cpg
 
-_TASK = flags.DEFINE_string("task", "darwin_walk", f"One of {', '.join(DARWIN_TASKS)}.")
-_PARAMS = flags.DEFINE_string(
-    "params", "hand_tuned", f"Preset ({', '.join(cpg.PRESETS)}) or a JSON file of amplitudes."
-)
-_SEEDS = flags.DEFINE_string("seeds", "0-9", "Initial-state seeds: N, A-B or a comma list.")
-_STEPS = flags.DEFINE_integer("steps", 1000, "Control steps per trial (the study: 1000).")
-_FAST = flags.DEFINE_bool("fast", False, "Use the batched mujoco.rollout evaluator (same results).")
-_THREADS = flags.DEFINE_integer("threads", 2, "Threads of the --fast evaluator.")
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    global _TASK, _PARAMS, _SEEDS, _STEPS, _FAST, _THREADS
+    _TASK = flags.DEFINE_string("task", "darwin_walk", f"One of {', '.join(DARWIN_TASKS)}.")
+    _PARAMS = flags.DEFINE_string(
+        "params", "hand_tuned", f"Preset ({', '.join(cpg.PRESETS)}) or a JSON file of amplitudes."
+    )
+    _SEEDS = flags.DEFINE_string("seeds", "0-9", "Initial-state seeds: N, A-B or a comma list.")
+    _STEPS = flags.DEFINE_integer("steps", 1000, "Control steps per trial (the study: 1000).")
+    _FAST = flags.DEFINE_bool(
+        "fast", False, "Use the batched mujoco.rollout evaluator (same results)."
+    )
+    _THREADS = flags.DEFINE_integer("threads", 2, "Threads of the --fast evaluator.")
 
 
 def parse_params(text: str) -> np.ndarray:
@@ -86,4 +92,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+    define_flags()
     cli.run(main)

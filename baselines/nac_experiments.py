@@ -20,19 +20,16 @@ import os
 import numpy as np
 from absl import flags
 
-from baselines import cli, nac, runs
+from baselines import cli, nac, progress, runs
 from baselines.stats import mean_std_ci95
 
 
 # --output_dir and --steps are `baselines.nac`'s flags (imported above), shared here.
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
-    global _OUTPUT_DIR, _STEPS, _SEEDS, _RESUME
-    nac.define_flags()  # --output_dir, --steps and the rest of NAC's flags are shared.
-    _OUTPUT_DIR = nac._OUTPUT_DIR
-    _STEPS = nac._STEPS
-    _SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration.")
-    _RESUME = flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
+    nac.define_flags()  # --output_dir, --steps, --eval_seeds and NAC's other flags.
+    flags.DEFINE_integer("seeds", 5, "Seeds per configuration.")
+    flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
 
 
 CONFIGS = {
@@ -61,16 +58,67 @@ def ci95(values) -> tuple[float, float, float]:
     return mean, low, high
 
 
+def run_configuration(
+    name: str, seeds: int, steps: int, eval_seeds: int, output_dir: str, resume: bool
+) -> list[dict]:
+    """Runs (or, with `resume`, reuses) one configuration's NAC runs; returns summaries.
+
+    Raises:
+      runs.RunDirectoryExists: If a run exists and `resume` is off.
+    """
+    config, summaries = CONFIGS[name], []
+    for seed in progress.track(range(seeds), desc=name, unit="run"):
+        settings = {
+            **BASE,
+            **config,
+            "steps": steps,
+            "eval_seeds": eval_seeds,
+            "seed": seed,
+            "output_dir": output_dir,
+            "run_name": f"{name}_seed{seed}",
+        }
+        path = os.path.join(output_dir, "nac", config["task"], settings["run_name"])
+        if resume and os.path.exists(os.path.join(path, "summary.json")):
+            summaries.append(runs.read_json(os.path.join(path, "summary.json")))
+            continue
+        _, summary = nac.run_nac(settings, log=lambda line: None)
+        summaries.append(summary)
+        progress.write(
+            f"{name} seed {seed}: before {summary['reward_before']:+.5f} after "
+            f"{summary['reward_after']} max|θ| {summary['theta_norm_max']:.3g} "
+            f"diverged {summary['diverged']}"
+        )
+    return summaries
+
+
+def table_row(name: str, summaries: list[dict]) -> str:
+    """The markdown row of a configuration: rewards before/after, Δ with its interval."""
+    before = [s["reward_before"] for s in summaries]
+    finished = [s for s in summaries if s["reward_after"] is not None]
+    after = [s["reward_after"] for s in finished]
+    delta = [s["reward_after"] - s["reward_before"] for s in finished]
+    b, a = ci95(before), ci95(after) if after else (float("nan"),) * 3
+    d = ci95(delta) if delta else (float("nan"),) * 3
+    return (
+        f"| {name} | {CONFIGS[name]['task']} | {b[0]:+.5f} | {a[0]:+.5f} | {d[0]:+.5f} "
+        f"({d[1]:+.5f}, {d[2]:+.5f}) | "
+        f"{np.median([s['theta_norm_max'] for s in summaries]):.3g} | "
+        f"{sum(s['diverged'] for s in summaries)}/{len(summaries)} | "
+        f"{np.mean([s['actor_updates'] for s in summaries]):.0f} |"
+    )
+
+
 def main(argv):
     del argv
-    cli.check(_SEEDS.value >= 2, f"--seeds must be ≥ 2, got {_SEEDS.value}")
-    cli.check(_STEPS.value >= 100, f"--steps must be ≥ 100, got {_STEPS.value}")
-    out = _OUTPUT_DIR.value
+    values = flags.FLAGS
+    cli.check(values.seeds >= 2, f"--seeds must be ≥ 2, got {values.seeds}")
+    cli.check(values.steps >= 100, f"--steps must be ≥ 100, got {values.steps}")
+    out = values.output_dir
     lines = [
         "# NAC on the DMP term: the study's finding and the reward hypothesis",
         "",
-        f"{_STEPS.value} learning steps per run; rewards are per control step, evaluated "
-        f"with u = F over {nac._EVAL_SEEDS.value} initial states (seeds 100 on); "
+        f"{values.steps} learning steps per run; rewards are per control step, evaluated "
+        f"with u = F over {values.eval_seeds} initial states (seeds 100 on); "
         "Δ = after − before, paired "
         "by run, 95 % t-interval over seeds.",
         "",
@@ -78,46 +126,14 @@ def main(argv):
         "max |θ| (median) | diverged | actor updates (mean) |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    for name, config in CONFIGS.items():
-        summaries = []
-        for seed in range(_SEEDS.value):
-            settings = {
-                **BASE,
-                **config,
-                "steps": _STEPS.value,
-                "eval_seeds": nac._EVAL_SEEDS.value,
-                "seed": seed,
-                "output_dir": out,
-                "run_name": f"{name}_seed{seed}",
-            }
-            path = os.path.join(out, "nac", config["task"], settings["run_name"], "summary.json")
-            if _RESUME.value and os.path.exists(path):
-                summaries.append(runs.read_json(path))
-                continue
-            try:
-                _, summary = nac.run_nac(settings, log=lambda line: None)
-            except runs.RunDirectoryExists as e:
-                raise cli.UsageError(f"{e}; pass --resume to reuse finished runs") from None
-            summaries.append(summary)
-            print(
-                f"{name} seed {seed}: before {summary['reward_before']:+.5f} after "
-                f"{summary['reward_after']} max|θ| {summary['theta_norm_max']:.3g} "
-                f"diverged {summary['diverged']}",
-                flush=True,
+    for name in CONFIGS:
+        try:
+            summaries = run_configuration(
+                name, values.seeds, values.steps, values.eval_seeds, out, values.resume
             )
-        before = [s["reward_before"] for s in summaries]
-        finished = [s for s in summaries if s["reward_after"] is not None]
-        after = [s["reward_after"] for s in finished]
-        delta = [s["reward_after"] - s["reward_before"] for s in finished]
-        b, a = ci95(before), ci95(after) if after else (float("nan"),) * 3
-        d = ci95(delta) if delta else (float("nan"),) * 3
-        lines.append(
-            f"| {name} | {config['task']} | {b[0]:+.5f} | {a[0]:+.5f} | {d[0]:+.5f} "
-            f"({d[1]:+.5f}, {d[2]:+.5f}) | "
-            f"{np.median([s['theta_norm_max'] for s in summaries]):.3g} | "
-            f"{sum(s['diverged'] for s in summaries)}/{len(summaries)} | "
-            f"{np.mean([s['actor_updates'] for s in summaries]):.0f} |"
-        )
+        except runs.RunDirectoryExists as e:
+            raise cli.UsageError(f"{e}; pass --resume to reuse finished runs") from None
+        lines.append(table_row(name, summaries))
     lines.append("")
     os.makedirs(out, exist_ok=True)
     runs.write_text(os.path.join(out, "nac_experiments.md"), "\n".join(lines) + "\n")

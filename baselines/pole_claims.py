@@ -29,13 +29,18 @@ from absl import flags
 from baselines import cli, runs
 from baselines.tabular import runner
 
-_OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs/pole_claims", "Root of the output tree.")
-_SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration (0..N-1).")
-_STEPS = flags.DEFINE_integer("steps", 20000, "Learning steps per run (the study's α horizon).")
-_FORCE_STEPS = flags.DEFINE_integer(
-    "force_steps", 5000, "Steps of the force comparison (Fig. 4.9)."
-)
-_RESUME = flags.DEFINE_bool("resume", False, "Skip runs that already have a summary.json.")
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    global _OUTPUT_DIR, _SEEDS, _STEPS, _FORCE_STEPS, _RESUME
+    _OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs/pole_claims", "Root of the output tree.")
+    _SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration (0..N-1).")
+    _STEPS = flags.DEFINE_integer("steps", 20000, "Learning steps per run (the study's α horizon).")
+    _FORCE_STEPS = flags.DEFINE_integer(
+        "force_steps", 5000, "Steps of the force comparison (Fig. 4.9)."
+    )
+    _RESUME = flags.DEFINE_bool("resume", False, "Skip runs that already have a summary.json.")
+
 
 LAST = 5000  # Steps at the end of a run that must pass without a fall ("balanced").
 BASE = {
@@ -419,4 +424,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+    define_flags()
     cli.run(main)
