@@ -1,4 +1,5 @@
 """Analysis of run directories: published numbers, leaderboard, claims, figures.
 
-Reads run files only (DESIGN Sec. 8); never imported by `cpg_suite` or `baselines`.
+Reads run files only (docs/architecture.md#packages-and-data-flow); never imported by
+`cpg_suite` or `baselines`.
 """

@@ -1,4 +1,4 @@
-r"""Leaderboard and claims tables from run directories (DESIGN Sec. 8).
+r"""Leaderboard and claims tables from run directories (docs/architecture.md).
 
   python -m analysis.leaderboard --runs=DIR --out=leaderboard.csv
 

@@ -1,7 +1,7 @@
 """Published numbers and claims of the study, with their sources.
 
 * `published.csv`: every number and claim row of the project's digest of the thesis
-  (THESIS.md Sec. 6; ids like `CEM-N25`): domain, method, setting, quantity, value, unit,
+  (the thesis, docs/study.md; ids like `CEM-N25`): domain, method, setting, quantity, value, unit,
   thesis section/table/figure, kind (number / claim).
 * `published_claims.csv`: every testable claim of the digest's narrative (ids like `CR-1`,
   `PB-8`, `NAC-3`), with its statement.
@@ -22,7 +22,7 @@ def _read(name: str) -> list[dict]:
     return list(csv.DictReader(text.splitlines()))
 
 
-# Every number and claim row of THESIS.md Sec. 6, by id.
+# Every number and claim row the study publishes, by id (docs/study.md).
 NUMBERS = {row["id"]: row for row in _read("published.csv")}
 # Every narrative claim (CR-n, PB-n, CPG-n, NAC-n, CEMT-n), id -> statement.
 CLAIMS = {row["id"]: row["statement"] for row in _read("published_claims.csv")}

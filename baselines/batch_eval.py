@@ -1,4 +1,4 @@
-"""Batched evaluation of open-loop CPG gaits with `mujoco.rollout` (DESIGN Sec. 7).
+"""Batched evaluation of CPG gaits with `mujoco.rollout` (docs/architecture.md).
 
 The CPG is open-loop: for fixed amplitudes the joint targets are a function of time only.
 So evaluating K amplitude vectors is K independent rollouts of precomputed controls, run

@@ -1,4 +1,4 @@
-r"""Sweep of the CPG and servo constants the study does not give (DESIGN Sec. 5).
+r"""Sweep of the CPG and servo constants the study does not give (docs/decisions.md#cpg).
 
   python -m baselines.calibrate_cpg --output=runs/calibration.csv
 

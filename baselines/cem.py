@@ -19,7 +19,8 @@ to 0, as the thesis says; noise is a variance added to the diagonal every round.
 The best vector of the run and the final mean (evaluated once at the end: the algorithm
 never tests a mean before adopting it, thesis Sec. 6.3) are both reported.
 
-Run directory `<output_dir>/cem/<task>/<run_name>/` (DESIGN Sec. 6): config.json,
+Run directory `<output_dir>/cem/<task>/<run_name>/` (docs/architecture.md#run-directories):
+config.json,
 progress.csv (a row per round), checkpoint.json (atomic, every round; `--resume`
 continues bit-identically), best_params.json, mean_params.json, summary.json.
 """

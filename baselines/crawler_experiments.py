@@ -53,7 +53,7 @@ REALTIME = (
 )
 EXPLORE_MOVES = (50, 100, 200, 500, 1000)
 GAMMAS = (0.5, 0.6, 0.7, 0.75, 0.79, 0.8, 0.85, 0.9, 0.93, 0.95)
-# The study's figures (THESIS.md Sec. 1.10; u.d. = its undefined distance unit).
+# The study's figures (thesis Sec. 4.1.7, docs/study.md; u.d. = its undefined distance unit).
 PUBLISHED = {
     "value_iteration": "7.57 u.d., 2-state cycle, one joint (CR-11)",
     "td0": "6.93 u.d. (CR-14)",

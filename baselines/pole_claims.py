@@ -7,7 +7,7 @@ Runs Q-learning on `pole_balance` for every setting the study varied — discret
 (`<output_dir>/q_learning/pole_balance/<config>_seed<k>/`), then writes beside them:
 
   * `pole_experiments.csv`: one row per configuration, aggregated over seeds;
-  * `pole_claims.csv` and `pole_claims.md`: each claim PB-1..PB-16 of THESIS.md Sec. 2.5,
+  * `pole_claims.csv` and `pole_claims.md`: each claim PB-1..PB-16 of thesis Sec. 4.2,
     the measured evidence and whether it holds (yes / no), with the rule used.
 
 "Balanced" means no fall in the last 5,000 of 20,000 steps (the study's "indefinite

@@ -1,4 +1,4 @@
-"""Run directories (DESIGN Sec. 6): layout, atomic writes, progress files, config records.
+"""Run directories (docs/architecture.md#run-directories): layout, atomic writes, progress files.
 
 Layout: `<output_dir>/<method>/<task>/<run_name>/` holding `config.json`, `progress.csv`,
 `summary.json` and method-specific files. Every file except the append-only progress file

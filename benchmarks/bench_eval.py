@@ -1,4 +1,4 @@
-r"""Throughput of the batched gait evaluator (DESIGN Sec. 7).
+r"""Throughput of the batched gait evaluator (docs/architecture.md#the-batched-evaluator).
 
   python benchmarks/bench_eval.py [--candidates=20] [--cem_rounds=10]
 

@@ -7,7 +7,7 @@ Each of the 12 leg joints has a motion-pattern generator
 
 whose primitives f are driven by the leg's phase (5.3-5.12), and z is the joint target.
 
-Decisions where the study is silent (DESIGN Sec. 5, THESIS.md Sec. 3.4 and 3.6):
+Decisions where the study is silent (docs/decisions.md#cpg):
 
 * **Amplitudes are degrees** of joint excursion, in the order of thesis Sec. 6.2
   (`AMPLITUDE_NAMES`). A sine primitive `A φ̇ sin(φ + c)` integrates to an oscillation of
@@ -22,7 +22,7 @@ Decisions where the study is silent (DESIGN Sec. 5, THESIS.md Sec. 3.4 and 3.6):
   hip + knee + ankle pitch = 0 keeps the sole parallel to the torso (the hand-tuned flexion
   amplitudes cancel: 20 − 40 + 40 − 20 = 0); ankle roll + = the rotation that cancels an
   equal hip roll, so equal hip and ankle roll keep the sole flat while the pelvis sways.
-  `JOINT_SIGNS` maps them onto the DARwIn-OP joints (axes of darwin_op_facts.md Sec. 3-4):
+  `JOINT_SIGNS` maps them onto the DARwIn-OP joints (docs/darwin_op_model.md#frames-and-joints):
   mirrored legs, one sign per joint. With these signs the printed compass (5.11-5.12) and
   flexKnee (5.9-5.10) primitives with equal positive amplitudes tilt the sole (the ankle
   adds to the hip or knee instead of cancelling it); the study gives no convention that
@@ -31,7 +31,7 @@ Decisions where the study is silent (DESIGN Sec. 5, THESIS.md Sec. 3.4 and 3.6):
   centred on φ̄ = 0.
 * **Start-up ramp**: the primitives are multiplied by a smoothstep r(t) rising from 0 to
   1 over `ramp_time` seconds, so the gait starts from standing without a jolt (allowed by
-  DESIGN Sec. 5; the study does not say how its trials started).
+  docs/decisions.md#cpg; the study does not say how its trials started).
 * **Integration**: exact exponential integration of the relaxation term over substeps of
   `substep` seconds with the primitives taken at each substep's midpoint.
 * ω, β, the offsets O (standing posture) and the ramp are `CPGConfig` fields; the defaults
@@ -112,7 +112,7 @@ LEG_JOINTS = (
 JOINTS_PER_LEG = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 HYAW, HROLL, HPITCH, KNEE, APITCH, AROLL = range(6)
 
-# Anatomical variable -> DARwIn-OP joint angle (darwin_op_facts.md Sec. 3.1 axes, Sec. 4).
+# Anatomical variable -> DARwIn-OP joint angle (docs/darwin_op_model.md#frames-and-joints).
 JOINT_SIGNS = np.array([+1, +1, +1, +1, -1, +1, -1, -1, -1, -1, +1, -1], dtype=np.float64)
 
 FLEXION_FORMS = ("gaussian_derivative", "printed")
@@ -120,7 +120,7 @@ FLEXION_FORMS = ("gaussian_derivative", "printed")
 
 @dataclasses.dataclass(frozen=True)
 class CPGConfig:
-    """The CPG constants the study does not give (DESIGN Sec. 5).
+    """The CPG constants the study does not give (docs/decisions.md#cpg).
 
     Attributes:
       stride_period: Period of one full cycle (a left and a right step), s; ω = 2π / period.

@@ -1,19 +1,19 @@
 """DARwIn-OP domain: the humanoid of the study, walking or balancing on a CPG (thesis Ch. 5-6).
 
-Model (`xml/darwin.xml`) from `darwin_op_facts.md`: 20 joints with the Webots axes, ranges,
+Model (`xml/darwin.xml`) from docs/darwin_op_model.md: 20 joints with the Webots axes, ranges,
 masses, centres of mass and inertias (total 2.925 kg); box feet 0.105 × 0.066 m; torso IMU
 (accelerometer, gyro, orientation) and a touch sensor under each sole. Decisions:
 
 * **Torso centre of mass**: the Webots value (−0.050, 0, −0.080) m, not the CAD-derived
-  (−0.019, −0.003, −0.039) (facts Sec. 11.1). The study's numbers come from the Webots
-  model, so we keep its mass distribution; the whole-robot centre of mass then sits 13 mm
+  (−0.019, −0.003, −0.039) (docs/darwin_op_model.md#masses). The study's numbers come from
+  the Webots model, so we keep its mass distribution; the whole-robot centre of mass then sits 13 mm
   behind the foot centres, inside the 105 mm long support.
-* **Servos** (MX-28, facts Sec. 8): MuJoCo position actuators with kp = 40 N·m/rad and
-  a torque limit of 2.5 N·m (stall torque at 12 V); joint damping 0.43 N·m·s/rad, the
-  slope of the MX-28 torque-speed line (2.5 N·m stall / 5.76 rad/s no-load), i.e. the
-  back-EMF braking of the motor; armature 0.005 kg·m² (a coreless rotor of about
-  1.3e-7 kg·m² reflected through the 193:1 gearbox). The sources give no SI stiffness;
-  kp was chosen with `python -m baselines.calibrate_cpg`.
+* **Servos** (MX-28, docs/darwin_op_model.md#servos-dynamixel-mx-28): MuJoCo position
+  actuators with kp = 40 N·m/rad and a torque limit of 2.5 N·m (stall torque at 12 V);
+  joint damping 0.43 N·m·s/rad, the slope of the MX-28 torque-speed line (2.5 N·m stall /
+  5.76 rad/s no-load), i.e. the back-EMF braking of the motor; armature 0.005 kg·m² (a
+  coreless rotor of about 1.3e-7 kg·m² reflected through the 193:1 gearbox). The sources
+  give no SI stiffness; kp was chosen with `python -m baselines.calibrate_cpg`.
 * **Contacts**: soft-ish rubber soles (friction 1.0, solref 0.008 s); the feet collide with
   each other and with the floor, every other robot geom only with the floor.
 * **Timing**: physics step 2 ms (implicit-fast integrator), control step 16 ms (the Webots

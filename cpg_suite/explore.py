@@ -4,7 +4,8 @@ r"""Render a CPG gait of the DARwIn-OP headlessly: a video and a filmstrip PNG.
 
 Rendering lives in `cpg_suite.render`; without a display and without `MUJOCO_GL` this
 command renders with EGL. Writes `DIR/<params>.mp4` (or `.gif` when imageio/ffmpeg are not
-installed; the `plots` extra installs them) and `DIR/<params>_filmstrip.png`: `--frames` snapshots taken evenly
+installed; the `plots` extra installs them) and `DIR/<params>_filmstrip.png`: `--frames`
+snapshots taken evenly
 over the trial from the tracking side camera, left to right, each stamped with its time.
 `--params` takes a preset (`hand_tuned`, `table6_1`, `table6_2`) or a JSON file of the 11
 amplitudes by name.

@@ -1,4 +1,7 @@
-"""The batched rollout evaluator equals stepping the environment (DESIGN Sec. 7)."""
+"""The batched rollout evaluator equals stepping the environment.
+
+See docs/architecture.md#the-batched-evaluator.
+"""
 
 import numpy as np
 import pytest

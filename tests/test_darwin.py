@@ -20,7 +20,8 @@ def _body(physics, name):
 
 def test_total_mass(physics):
     assert physics.model.body_mass.sum() == pytest.approx(2.9, abs=0.1)
-    assert physics.model.body_mass.sum() == pytest.approx(2.925324, abs=1e-5)  # facts Sec. 5
+    # docs/darwin_op_model.md#masses
+    assert physics.model.body_mass.sum() == pytest.approx(2.925324, abs=1e-5)
 
 
 def test_twenty_joints_with_servos(physics):
@@ -38,7 +39,8 @@ def test_twenty_joints_with_servos(physics):
 
 def test_standing_height_and_leg_segments(physics):
     physics.set_standing_pose(np.zeros(12), darwin.ARM_POSE)
-    # Straight legs: torso origin 0.3417 m above the sole plane (facts Sec. 7.1).
+    # Straight legs: torso origin 0.3417 m above the sole plane
+    # (docs/darwin_op_model.md#dimensions).
     assert physics.torso_height() == pytest.approx(0.3417, abs=0.002)
     for side in ("l", "r"):
         hip = _body(physics, f"pelv_y_{side}")
@@ -50,7 +52,8 @@ def test_standing_height_and_leg_segments(physics):
         assert ankle[2] - sole[2] == pytest.approx(0.0335, abs=1e-6)
     hips = _body(physics, "pelv_y_l") - _body(physics, "pelv_y_r")
     assert hips[1] == pytest.approx(0.074, abs=1e-6)
-    # Overall height with a level head: about 0.455 m (thesis Sec. 5.1, facts Sec. 2).
+    # Overall height with a level head: about 0.455 m
+    # (thesis Sec. 5.1, docs/darwin_op_model.md#dimensions).
     pose = darwin.ARM_POSE.copy()
     pose[-1] = 0.785
     physics.set_standing_pose(np.zeros(12), pose)

@@ -60,7 +60,7 @@ def test_converged_greedy_cycle_has_six_states_and_reward_53(tokic):
     assert cycle.reward == 53
     assert [tokic.label(s) for s in cycle.states] == SIX_CYCLE
     assert sorted(cycle.rewards) == sorted([0, 0, 6, 32, 18, -3])
-    # Converged values of the cycle states (THESIS.md 1.5).
+    # Converged values of the cycle states (docs/decisions.md#tabular-methods).
     expected = {
         (2, 0): 81.5827,
         (2, 1): 90.6475,

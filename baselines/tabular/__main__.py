@@ -10,7 +10,7 @@ Online learning on a discrete task (thesis Alg. 4.2, Sec. 4.2):
   python -m baselines.tabular --task=pole_balance --algo=q_learning --steps=20000 \
       --alpha=0.01 --gamma=0.9 --bins=20x20 --seed=0 --output_dir=runs
 
-Writes `<output_dir>/<algo>/<task or model>/<run_name>/` (DESIGN Sec. 6).
+Writes `<output_dir>/<algo>/<task or model>/<run_name>/` (docs/architecture.md#run-directories).
 """
 
 from __future__ import annotations

@@ -17,7 +17,8 @@ import numpy as np
 
 GRID_ACTIONS = ("up", "right", "down", "left")
 _GRID_MOVES = ((-1, 0), (0, 1), (1, 0), (0, -1))
-# Tie order that reproduces the thesis appendix's picks: up, down, left, right (THESIS.md 1.5).
+# Tie order that reproduces the thesis appendix's picks: up, down, left, right
+# (docs/decisions.md#tabular-methods).
 APPENDIX_TIE_ORDER = (0, 2, 3, 1)
 
 

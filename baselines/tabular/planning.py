@@ -2,7 +2,7 @@
 
 Value iteration follows thesis Alg. 4.1 / Eq. 3.1 and sweeps **in place** (Gauss-Seidel) in
 a given state order: that is what reproduces thesis Tables A.2/A.3 (row-major order from
-(0, 0)); a synchronous sweep does not (see THESIS.md Sec. 1.5).
+(0, 0)); a synchronous sweep does not (see docs/decisions.md#tabular-methods).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 Shared by `python -m baselines.tabular` and the experiment scripts. `DEFAULTS` lists every
 setting; `execute(settings)` fills in the defaults, runs, and writes
-`<output_dir>/<algo>/<task or model>/<run_name>/` (DESIGN Sec. 6).
+`<output_dir>/<algo>/<task or model>/<run_name>/` (docs/architecture.md#run-directories).
 """
 
 from __future__ import annotations
