@@ -327,7 +327,7 @@ def crawler_claims(by: dict, put) -> None:
         )
 
 
-def _write_csv(path: str, rows: list[dict], fields: list[str]) -> None:
+def write_csv(path: str, rows: list[dict], fields: list[str]) -> None:
     tmp = path + ".tmp"
     with open(tmp, "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=fields)
@@ -349,8 +349,8 @@ def main(argv=None) -> int:
     claims = claim_rows(found, args.runs)
     out_dir = os.path.dirname(os.path.abspath(args.out))
     os.makedirs(out_dir, exist_ok=True)
-    _write_csv(args.out, rows, LEADERBOARD_FIELDS)
-    _write_csv(os.path.join(out_dir, "claims.csv"), claims, CLAIM_FIELDS)
+    write_csv(args.out, rows, LEADERBOARD_FIELDS)
+    write_csv(os.path.join(out_dir, "claims.csv"), claims, CLAIM_FIELDS)
     for line in skipped:
         print(f"skipped: {line}", file=sys.stderr)
     judged = sum(c["holds"] != "untested" for c in claims)

@@ -101,13 +101,13 @@ def joint_trajectories(found: list[dict], out: str) -> str | None:
     best, best_distance = _best_gait_file(found)
     if best is None:
         return None
-    from cpg_suite import cpg
+    from cpg_suite import cpg, darwin
 
     try:
         found_amps = cpg.load_amplitudes(best)
     except (ValueError, OSError, json.JSONDecodeError):
         return None
-    dt, steps = 0.016, 1000
+    dt, steps = darwin.CONTROL_TIMESTEP, 1000
     plt = _plt()
     fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
     t = np.arange(steps) * dt
@@ -361,12 +361,12 @@ def main(argv=None) -> int:
         lines += ["## Skipped run files", ""] + [f"- {s}" for s in skipped] + [""]
     with open(os.path.join(args.out, "report.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines))
-    leaderboard._write_csv(
+    leaderboard.write_csv(
         os.path.join(args.out, "leaderboard.csv"),
         rows,
         leaderboard.LEADERBOARD_FIELDS,
     )
-    leaderboard._write_csv(
+    leaderboard.write_csv(
         os.path.join(args.out, "claims.csv"),
         claims,
         leaderboard.CLAIM_FIELDS,

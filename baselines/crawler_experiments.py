@@ -53,14 +53,15 @@ REALTIME = (
 )
 EXPLORE_MOVES = (50, 100, 200, 500, 1000)
 GAMMAS = (0.5, 0.6, 0.7, 0.75, 0.79, 0.8, 0.85, 0.9, 0.93, 0.95)
-# The study's figures (thesis Sec. 4.1.7, docs/study.md; u.d. = its undefined distance unit).
+# Where the study reports each method's real-time result: ids of analysis/published.csv
+# (the one place the study's numbers are typed; u.d. = its undefined distance unit).
 PUBLISHED = {
-    "value_iteration": "7.57 u.d., 2-state cycle, one joint (CR-11)",
-    "td0": "6.93 u.d. (CR-14)",
-    "td_lambda": "5.26 u.d., 4-state cycle (CR-14/15)",
-    "q_learning": "< 2 u.d. (CR-14)",
-    "sarsa": "< 2 u.d. (CR-14)",
-    "sarsa_lambda": "< 2 u.d. (CR-14)",
+    "value_iteration": "CR-N21 (u.d.), CR-N22 (cycle); claim CR-11",
+    "td0": "CR-N23 (u.d.); claim CR-14",
+    "td_lambda": "CR-N24 (u.d.); claims CR-14/15",
+    "q_learning": "claim CR-14",
+    "sarsa": "claim CR-14",
+    "sarsa_lambda": "claim CR-14",
     "policy_iteration": "—",
 }
 

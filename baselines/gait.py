@@ -13,10 +13,9 @@ import numpy as np
 from dm_control.rl import control as rl_control
 
 import cpg_suite
-from cpg_suite import cpg
+from cpg_suite import cpg, darwin
 
 DARWIN_TASKS = ("darwin_walk", "darwin_balance")
-_CONTROL_TIMESTEP = 0.016  # s: the DARwIn-OP tasks' control step.
 
 
 def evaluate_gait(
@@ -45,13 +44,14 @@ def evaluate_gait(
     config = config or cpg.CPGConfig()
     # The CPG's open-loop trajectory (`cpg.trajectories`, checked against stepping `cpg.CPG`
     # in the tests): the same targets the batched evaluators use, bit for bit.
-    targets = cpg.trajectories(amplitudes, steps, _CONTROL_TIMESTEP, config)[0]
+    targets = cpg.trajectories(amplitudes, steps, darwin.CONTROL_TIMESTEP, config)[0]
     kwargs = {"random": seed, "posture": config.offsets(), "time_limit": float("inf")}
     env = cpg_suite.load(task, task_kwargs={**kwargs, **(task_kwargs or {})})
     physics = env.physics
-    if env.control_timestep() != _CONTROL_TIMESTEP:
+    if env.control_timestep() != darwin.CONTROL_TIMESTEP:
         raise ValueError(
-            f"{task} has a control step of {env.control_timestep()} s, expected {_CONTROL_TIMESTEP}"
+            f"{task} has a control step of {env.control_timestep()} s, "
+            f"expected {darwin.CONTROL_TIMESTEP}"
         )
     env.reset()
     start = end = physics.torso_position()
