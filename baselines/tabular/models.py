@@ -15,8 +15,11 @@ import json
 
 import numpy as np
 
-GRID_ACTIONS = ("up", "right", "down", "left")
-_GRID_MOVES = ((-1, 0), (0, 1), (1, 0), (0, -1))
+from cpg_suite import crawler
+
+# The crawler's grid (cpg_suite.crawler is its one definition): actions and their moves.
+GRID_ACTIONS = crawler.ACTIONS
+_GRID_MOVES = crawler.MOVES
 # Tie order that reproduces the thesis appendix's picks: up, down, left, right
 # (docs/decisions.md#tabular-methods).
 APPENDIX_TIE_ORDER = (0, 2, 3, 1)
@@ -69,7 +72,7 @@ class TabularModel:
         return divmod(int(s), self.grid_shape[1])
 
 
-def grid_index(r: int, c: int, cols: int = 5) -> int:
+def grid_index(r: int, c: int, cols: int = crawler.GRID) -> int:
     return r * cols + c
 
 

@@ -16,6 +16,7 @@ import cpg_suite
 from baselines import runs
 from baselines.tabular import discretize, exploration, learners, model_env, models, planning
 from baselines.tabular.online import balance_metrics, run_online
+from cpg_suite.crawler import GRID
 
 PLANNERS = ("value_iteration", "policy_iteration")
 ALGOS = PLANNERS + tuple(learners.LEARNERS)
@@ -277,7 +278,8 @@ def run_crawler(run_dir: str, settings: dict) -> dict:
     )
     runs.write_json(os.path.join(run_dir, "learned_rewards.json"), {"rewards": keyed})
     runs.save_npy(os.path.join(run_dir, "values_history.npy"), values)
-    runs.write_matrix_csv(os.path.join(run_dir, "values.csv"), learner.state_values().reshape(5, 5))
+    grid_values = learner.state_values().reshape(GRID, GRID)
+    runs.write_matrix_csv(os.path.join(run_dir, "values.csv"), grid_values)
     cycle = planning.policy_cycle(learned, policy)  # its reward: the learned move rewards
     return {
         "moves": settings["steps"],
