@@ -192,104 +192,110 @@ def aggregate(per_run: pd.DataFrame) -> pd.DataFrame:
     return out.reset_index()
 
 
-def evaluate_claims(agg: pd.DataFrame) -> list[dict]:
-    """Each PB claim, its evidence and whether it holds, by a stated rule."""
-    a = agg.set_index("config")
-    n = int(a["n"].iloc[0])
-    most = n - 1 if n > 1 else n  # "balances": at least n-1 of n seeds (4 of 5)
-    few = 1 if n > 1 else 0  # "fails": at most 1 of n seeds
+class _Evidence:
+    """The aggregate table of the pole runs, read the way the claim rules need it."""
 
-    def bal(c):
-        return int(a.loc[c, "balanced"])
+    def __init__(self, agg: pd.DataFrame):
+        self.a = agg.set_index("config")
+        self.n = int(self.a["n"].iloc[0])
+        self.most = self.n - 1 if self.n > 1 else self.n  # "balances": ≥ n-1 of n seeds
+        self.few = 1 if self.n > 1 else 0  # "fails": at most 1 of n seeds
 
-    def rms(c):
-        return float(a.loc[c, "rms_angle_last_mean"])
+    def value(self, config: str, column: str) -> float:
+        return float(self.a.loc[config, column])
 
-    def desc(c):
+    def bal(self, config: str) -> int:
+        return int(self.a.loc[config, "balanced"])
+
+    def rms(self, config: str) -> float:
+        return self.value(config, "rms_angle_last_mean")
+
+    def describe(self, config: str) -> str:
         return (
-            f"{c}: balanced {bal(c)}/{n}, falls {a.loc[c, 'falls_mean']:.1f}, "
-            f"last fall {a.loc[c, 'last_fall_step_mean']:.0f}, "
-            f"rms θ last {LAST} {rms(c):.4f} rad"
+            f"{config}: balanced {self.bal(config)}/{self.n}, "
+            f"falls {self.value(config, 'falls_mean'):.1f}, "
+            f"last fall {self.value(config, 'last_fall_step_mean'):.0f}, "
+            f"rms θ last {LAST} {self.rms(config):.4f} rad"
         )
 
-    claims = []
 
-    def claim(cid, statement, rule, holds, configs, extra=""):
-        evidence = "; ".join(desc(c) for c in configs) + (f"; {extra}" if extra else "")
-        claims.append(
-            {
-                "claim_id": cid,
-                "statement": statement,
-                "rule": rule,
-                "evidence": evidence,
-                "holds": "yes" if holds else "no",
-            }
-        )
-
-    claim(
-        "PB-1",
+# Each rule returns (statement, rule, holds, configurations shown, extra evidence).
+def _pb1(e):
+    return (
         "Q-learning (20×20 θ×θ̇, 3 actions, γ 0.9) balances the pole after a few falls",
-        f"base balanced ≥ {most}/{n} and falls > 0",
-        bal("base") >= most and a.loc["base", "falls_mean"] > 0,
+        f"base balanced ≥ {e.most}/{e.n} and falls > 0",
+        e.bal("base") >= e.most and e.value("base", "falls_mean") > 0,
         ["base"],
+        "",
     )
-    claim(
-        "PB-2",
-        "γ below 0.9 can still give similar results",
-        f"γ 0.5 and 0.7 each balanced ≥ {most}/{n}",
-        bal("gamma0.5") >= most and bal("gamma0.7") >= most,
-        ["gamma0.5", "gamma0.7"],
-    )
-    claim(
-        "PB-3",
-        "with γ ≤ 0.3 the cart fails to balance the pole",
-        f"γ 0.3 and 0.1 each balanced ≤ {few}/{n}",
-        bal("gamma0.3") <= few and bal("gamma0.1") <= few,
-        ["gamma0.3", "gamma0.1"],
-    )
-    claim(
-        "PB-4",
-        "angle-only states with 100 intervals never balance for good (2 or 3 actions)",
-        f"100 bins with 3 and with 2 actions each balanced ≤ {few}/{n}",
-        bal("bins100") <= few and bal("bins100_a2") <= few,
-        ["bins100", "bins100_a2"],
-    )
-    claim(
-        "PB-5",
-        "angle-only states with 20 intervals balance, with several oscillations",
-        f"20 bins balanced ≥ {most}/{n}",
-        bal("bins20") >= most,
-        ["bins20"],
-    )
-    claim(
-        "PB-6",
+
+
+def _all_balance(statement: str, configs: list[str], label: str):
+    def rule(e):
+        each = " each" if len(configs) > 1 else ""
+        return (
+            statement,
+            f"{label}{each} balanced ≥ {e.most}/{e.n}",
+            all(e.bal(c) >= e.most for c in configs),
+            configs,
+            "",
+        )
+
+    return rule
+
+
+def _none_balance(statement: str, configs: list[str], label: str):
+    def rule(e):
+        return (
+            statement,
+            f"{label} each balanced ≤ {e.few}/{e.n}",
+            all(e.bal(c) <= e.few for c in configs),
+            configs,
+            "",
+        )
+
+    return rule
+
+
+def _pb6(e):
+    return (
         "the approach/away reward makes even 100 angle intervals work",
-        f"100 bins + approach reward balanced ≥ {most}/{n}",
-        bal("bins100_approach") >= most,
+        f"100 bins + approach reward balanced ≥ {e.most}/{e.n}",
+        e.bal("bins100_approach") >= e.most,
         ["bins100_approach", "bins20_approach"],
+        "",
     )
+
+
+def _pb7(e):
     disc = ["bins100", "bins20", "bins4x20", "base", "bins20x4", "bins10x10"]
-    best = max(bal(c) for c in disc)
-    claim(
-        "PB-7",
+    best = max(e.bal(c) for c in disc)
+    return (
         "4×20 and 20×20 (θ×θ̇) are the best of the discretizations tried",
         "4×20 and 20×20 have the most balanced seeds of " + ", ".join(disc),
-        bal("bins4x20") == best and bal("base") == best,
+        e.bal("bins4x20") == best and e.bal("base") == best,
         disc,
+        "",
     )
-    claim(
-        "PB-8",
+
+
+def _pb8(e):
+    return (
         "two actions {+F, −F} are not enough; the zero-force action is needed",
-        f"2 actions balanced ≤ {few}/{n} with 20×20 and 4×20 while 3 actions balance ≥ {most}/{n}",
-        bal("a2") <= few
-        and bal("bins4x20_a2") <= few
-        and bal("base") >= most
-        and bal("bins4x20") >= most,
+        f"2 actions balanced ≤ {e.few}/{e.n} with 20×20 and 4×20 while 3 actions balance "
+        f"≥ {e.most}/{e.n}",
+        e.bal("a2") <= e.few
+        and e.bal("bins4x20_a2") <= e.few
+        and e.bal("base") >= e.most
+        and e.bal("bins4x20") >= e.most,
         ["a2", "bins4x20_a2", "base", "bins4x20"],
+        "",
     )
-    frac = float(a.loc["base", "toward_fall_fraction_mean"])
-    claim(
-        "PB-9",
+
+
+def _pb9(e):
+    frac = e.value("base", "toward_fall_fraction_mean")
+    return (
         "the learned policy pushes the cart toward the side the pole falls to",
         "base: > 0.5 of the pushes made while the pole moves away from upright go toward "
         "the side it leans to",
@@ -297,73 +303,129 @@ def evaluate_claims(agg: pd.DataFrame) -> list[dict]:
         ["base"],
         f"fraction toward the fall side {frac:.3f}",
     )
-    f05, f4 = "force0.5_short", "force4_short"
-    r05 = float(a.loc[f05, "rms_angle_second_half_mean"])
-    r4 = float(a.loc[f4, "rms_angle_second_half_mean"])
-    falls05 = float(a.loc[f05, "falls_second_half_mean"])
-    falls4 = float(a.loc[f4, "falls_second_half_mean"])
-    claim(
-        "PB-10",
+
+
+def _pb10(e):
+    r05 = e.value("force0.5_short", "rms_angle_second_half_mean")
+    r4 = e.value("force4_short", "rms_angle_second_half_mean")
+    falls05 = e.value("force0.5_short", "falls_second_half_mean")
+    falls4 = e.value("force4_short", "falls_second_half_mean")
+    return (
         "force barely affects whether learning succeeds, but 0.5 N is steadier than 4 N "
         "(fewer, smaller oscillations) over 5000 steps",
-        f"over 20000 steps 4 N balances ≥ {most}/{n} like 0.5 N; in the second half of "
+        f"over 20000 steps 4 N balances ≥ {e.most}/{e.n} like 0.5 N; in the second half of "
         "5000-step runs 4 N has larger rms θ and no fewer falls",
-        bal("force4") >= most and bal("base") >= most and r4 > r05 and falls4 >= falls05,
+        e.bal("force4") >= e.most and e.bal("base") >= e.most and r4 > r05 and falls4 >= falls05,
         ["base", "force4"],
         f"5000-step runs, second half: 0.5 N rms θ {r05:.4f} rad, falls {falls05:.1f}; "
         f"4 N rms θ {r4:.4f} rad, falls {falls4:.1f}",
     )
-    claim(
-        "PB-11",
+
+
+def _pb11(e):
+    q_max = e.value("alpha0", "q_table_abs_max")
+    return (
         "with α = 0 nothing is learned",
-        f"α 0: Q stays 0 and balanced ≤ {few}/{n}",
-        bal("alpha0") <= few and a.loc["alpha0", "q_table_abs_max"] == 0.0,
+        f"α 0: Q stays 0 and balanced ≤ {e.few}/{e.n}",
+        e.bal("alpha0") <= e.few and q_max == 0.0,
         ["alpha0"],
-        f"max |Q| {a.loc['alpha0', 'q_table_abs_max']:g}",
+        f"max |Q| {q_max:g}",
     )
-    positive = ["base", "alpha0.1", "alpha0.5", "alpha1"]
-    claim(
-        "PB-12",
-        "any α > 0 learns with good performance",
-        f"α 0.01, 0.1, 0.5, 1 each balanced ≥ {most}/{n}",
-        all(bal(c) >= most for c in positive),
-        positive,
-    )
-    early = {c: float(a.loc[c, "falls_first_5000_mean"]) for c in positive}
-    claim(
-        "PB-13",
+
+
+_POSITIVE_ALPHAS = ["base", "alpha0.1", "alpha0.5", "alpha1"]
+
+
+def _pb13(e):
+    early = {c: e.value(c, "falls_first_5000_mean") for c in _POSITIVE_ALPHAS}
+    return (
         "α = 0.01 is the most stable in the long run, with more falls early on",
         "α 0.01 has the lowest rms θ in the last 5000 steps and the most falls in the "
         "first 5000 among α > 0",
-        rms("base") == min(rms(c) for c in positive) and early["base"] == max(early.values()),
-        positive,
+        e.rms("base") == min(e.rms(c) for c in _POSITIVE_ALPHAS)
+        and early["base"] == max(early.values()),
+        _POSITIVE_ALPHAS,
         "falls in first 5000: " + ", ".join(f"{c} {v:.1f}" for c, v in early.items()),
     )
-    claim(
-        "PB-14",
+
+
+def _pb14(e):
+    return (
         "α = 0.1 is less stable than α = 0.01",
         "α 0.1: more falls or larger rms θ (last 5000) than α 0.01",
-        rms("alpha0.1") > rms("base")
-        or a.loc["alpha0.1", "falls_mean"] > a.loc["base", "falls_mean"],
+        e.rms("alpha0.1") > e.rms("base")
+        or e.value("alpha0.1", "falls_mean") > e.value("base", "falls_mean"),
         ["alpha0.1", "base"],
+        "",
     )
-    claim(
-        "PB-15",
+
+
+def _pb15(e):
+    high, low = (e.rms("alpha0.5"), e.rms("alpha1")), (e.rms("base"), e.rms("alpha0.1"))
+    return (
         "α = 0.5 and 1 are more unstable, and closer to each other than 0.01 and 0.1",
         "rms θ (last 5000) of α 0.5 and 1 above those of 0.01 and 0.1, and "
         "|rms(0.5) − rms(1)| < |rms(0.01) − rms(0.1)|",
-        min(rms("alpha0.5"), rms("alpha1")) > max(rms("base"), rms("alpha0.1"))
-        and abs(rms("alpha0.5") - rms("alpha1")) < abs(rms("base") - rms("alpha0.1")),
+        min(high) > max(low) and abs(high[0] - high[1]) < abs(low[0] - low[1]),
         ["alpha0.5", "alpha1"],
+        "",
     )
-    eps = ["base", "epsilon0.05", "epsilon0.1", "epsilon0.2"]
-    claim(
-        "PB-16",
+
+
+CLAIM_RULES = {
+    "PB-1": _pb1,
+    "PB-2": _all_balance(
+        "γ below 0.9 can still give similar results", ["gamma0.5", "gamma0.7"], "γ 0.5 and 0.7"
+    ),
+    "PB-3": _none_balance(
+        "with γ ≤ 0.3 the cart fails to balance the pole", ["gamma0.3", "gamma0.1"], "γ 0.3 and 0.1"
+    ),
+    "PB-4": _none_balance(
+        "angle-only states with 100 intervals never balance for good (2 or 3 actions)",
+        ["bins100", "bins100_a2"],
+        "100 bins with 3 and with 2 actions",
+    ),
+    "PB-5": _all_balance(
+        "angle-only states with 20 intervals balance, with several oscillations",
+        ["bins20"],
+        "20 bins",
+    ),
+    "PB-6": _pb6,
+    "PB-7": _pb7,
+    "PB-8": _pb8,
+    "PB-9": _pb9,
+    "PB-10": _pb10,
+    "PB-11": _pb11,
+    "PB-12": _all_balance(
+        "any α > 0 learns with good performance", _POSITIVE_ALPHAS, "α 0.01, 0.1, 0.5, 1"
+    ),
+    "PB-13": _pb13,
+    "PB-14": _pb14,
+    "PB-15": _pb15,
+    "PB-16": _all_balance(
         "ε has no considerable effect (at most it delays learning)",
-        f"ε 0, 0.05, 0.1, 0.2 each balanced ≥ {most}/{n}",
-        all(bal(c) >= most for c in eps),
-        eps,
-    )
+        ["base", "epsilon0.05", "epsilon0.1", "epsilon0.2"],
+        "ε 0, 0.05, 0.1, 0.2",
+    ),
+}
+
+
+def evaluate_claims(agg: pd.DataFrame) -> list[dict]:
+    """Each PB claim, its evidence and whether it holds, by the rule `CLAIM_RULES` states."""
+    evidence = _Evidence(agg)
+    claims = []
+    for claim_id, rule in CLAIM_RULES.items():
+        statement, stated_rule, holds, configs, extra = rule(evidence)
+        shown = "; ".join(evidence.describe(c) for c in configs)
+        claims.append(
+            {
+                "claim_id": claim_id,
+                "statement": statement,
+                "rule": stated_rule,
+                "evidence": shown + (f"; {extra}" if extra else ""),
+                "holds": "yes" if holds else "no",
+            }
+        )
     return claims
 
 
