@@ -29,9 +29,24 @@ import time
 QUICK = {
     "pole": ["--seeds=2", "--steps=6000", "--force_steps=2000"],
     "crawler": ["--seeds=2", "--moves=300"],
-    "cem": ["--seeds=1", "--rounds=3", "--trial_steps=300"],
+    "cem": [
+        "--seeds=1",
+        "--rounds=3",
+        "--trial_steps=300",
+        "--validation_seeds=2",
+        "--test_seeds=2",
+    ],
     "cem_k50": None,
-    "cmaes": [["--seed=0", "--population=10", "--rounds=3", "--trial_steps=300"]],
+    "cmaes": [
+        [
+            "--seed=0",
+            "--population=10",
+            "--rounds=3",
+            "--trial_steps=300",
+            "--validation_seeds=2",
+            "--test_seeds=2",
+        ]
+    ],
     "nac": ["--seeds=2", "--steps=500", "--eval_seeds=1"],
 }
 FULL = {
@@ -56,7 +71,7 @@ def _run(args: list[str], log) -> None:
         raise RuntimeError(f"{args[0]} failed with exit code {result.returncode}; see the log")
 
 
-def main(argv=None) -> int:
+def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     size = parser.add_mutually_exclusive_group(required=True)
     size.add_argument("--quick", action="store_true", help="small versions (minutes)")
@@ -69,89 +84,69 @@ def main(argv=None) -> int:
         default=None,
         help="render the hand-tuned and best gaits (default: with --full)",
     )
-    args = parser.parse_args(argv)
+    return parser
+
+
+def experiment_steps(plan: dict, runs: str, threads: int) -> list[tuple[str, list[str]]]:
+    """The experiments in order, as (title, `python -m` arguments): 1. value iteration on
+    the Tokic model, 2. the pole claims, 3. the crawler experiments, 4. CEM's Table 6.3
+    (5. its K = 50 seeds in --full), 6. CMA-ES, 7. NAC. Each resumes finished runs."""
+    optimizer = [f"--output_dir={runs}", f"--threads={threads}", "--resume"]
+    steps = [
+        (
+            "tokic value iteration",
+            ["baselines.tabular", "--model=tokic", "--algo=value_iteration"]
+            + [f"--output_dir={runs}", "--overwrite"],
+        ),
+        ("pole claims", ["baselines.pole_claims", f"--output_dir={runs}/pole", "--resume"]),
+        (
+            "crawler experiments",
+            ["baselines.crawler_experiments", f"--output_dir={runs}/crawler", "--resume"],
+        ),
+        ("CEM, thesis Table 6.3", ["baselines.cem", "--grid=table6_3", *optimizer]),
+    ]
+    steps[1][1].extend(plan["pole"])
+    steps[2][1].extend(plan["crawler"])
+    steps[3][1].extend(plan["cem"])
+    if plan["cem_k50"]:
+        steps.append(("CEM, K = 50 seeds", ["baselines.cem", "--grid=table6_3", *optimizer]))
+        steps[-1][1].extend(plan["cem_k50"])
+    for extra in plan["cmaes"]:
+        steps.append(("CMA-ES", ["baselines.cmaes", *optimizer, *extra]))
+    nac = ["baselines.nac_experiments", f"--output_dir={runs}/nac", "--resume", *plan["nac"]]
+    steps.append(("NAC", nac))
+    return steps
+
+
+def _run_steps(steps: list, log_path: str) -> bool:
+    """Runs the steps as separate processes, logging their output; False on a failure."""
+    start = time.perf_counter()
+    with open(log_path, "a", encoding="utf-8") as log:
+        for i, (title, command) in enumerate(steps, 1):
+            elapsed = time.perf_counter() - start
+            eta = f", about {elapsed / (i - 1) * (len(steps) - i + 1):.0f} s left" if i > 1 else ""
+            print(f"[{i}/{len(steps)}] {title} ({elapsed:.0f} s elapsed{eta})", flush=True)
+            try:
+                _run(command, log)
+            except RuntimeError as e:
+                print(f"error: {e} ({log_path})", file=sys.stderr)
+                return False
+    return True
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
     if args.threads < 1:
         print(f"error: --threads must be ≥ 1, got {args.threads}", file=sys.stderr)
         return 2
     plan = QUICK if args.quick else FULL
     runs = os.path.join(args.out, "runs")
     os.makedirs(runs, exist_ok=True)
-    log_path = os.path.join(args.out, "reproduce.log")
-    steps = [
-        (
-            "tokic value iteration",
-            [
-                "baselines.tabular",
-                "--model=tokic",
-                "--algo=value_iteration",
-                f"--output_dir={runs}",
-                "--overwrite",
-            ],
-        ),
-        (
-            "pole claims",
-            ["baselines.pole_claims", f"--output_dir={runs}/pole", "--resume", *plan["pole"]],
-        ),
-        (
-            "crawler experiments",
-            [
-                "baselines.crawler_experiments",
-                f"--output_dir={runs}/crawler",
-                "--resume",
-                *plan["crawler"],
-            ],
-        ),
-        (
-            "CEM, thesis Table 6.3",
-            [
-                "baselines.cem",
-                "--grid=table6_3",
-                f"--output_dir={runs}",
-                f"--threads={args.threads}",
-                "--resume",
-                *plan["cem"],
-            ],
-        ),
-    ]
-    if plan["cem_k50"]:
-        steps.append(
-            (
-                "CEM, K = 50 seeds",
-                [
-                    "baselines.cem",
-                    "--grid=table6_3",
-                    f"--output_dir={runs}",
-                    f"--threads={args.threads}",
-                    "--resume",
-                    *plan["cem_k50"],
-                ],
-            )
-        )
-    for extra in plan["cmaes"]:
-        steps.append(
-            (
-                "CMA-ES",
-                [
-                    "baselines.cmaes",
-                    f"--output_dir={runs}",
-                    f"--threads={args.threads}",
-                    "--resume",
-                    *extra,
-                ],
-            )
-        )
-    steps.append(
-        ("NAC", ["baselines.nac_experiments", f"--output_dir={runs}/nac", "--resume", *plan["nac"]])
-    )
     start = time.perf_counter()
-    with open(log_path, "a", encoding="utf-8") as log:
-        for i, (title, command) in enumerate(steps, 1):
-            print(f"[{i}/{len(steps)}] {title} ({time.perf_counter() - start:.0f} s)", flush=True)
-            try:
-                _run(command, log)
-            except RuntimeError as e:
-                print(f"error: {e} ({log_path})", file=sys.stderr)
-                return 1
+    if not _run_steps(
+        experiment_steps(plan, runs, args.threads), os.path.join(args.out, "reproduce.log")
+    ):
+        return 1
     from analysis import leaderboard, report
 
     leaderboard.main(["--runs", runs, "--out", os.path.join(args.out, "leaderboard.csv")])
