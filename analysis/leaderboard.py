@@ -59,8 +59,6 @@ LEADERBOARD_FIELDS = [
     "best",
     "published",
     "published_source",
-    "ratio_to_published",
-    "beats_published",
 ]
 CLAIM_FIELDS = ["claim_id", "statement", "evidence", "holds"]
 
@@ -109,8 +107,8 @@ def _published(task: str, method: str, config: str, metric: str):
     """(value, source) of the study for this row, if it reports one."""
     if task == "darwin_walk" and method == "cem" and metric == "best_distance_m":
         entry = published.TABLE6_3.get(config)
-        if entry:
-            return entry[0], f"{published.SOURCE} ({entry[2]}; u.d.)"
+        if entry:  # The study's best trial of one Webots run: like our in-sample best.
+            return entry[0], f"Webots, one run: {published.SOURCE} ({entry[2]}; u.d.)"
     if task == "crawler_walk" and metric == "displacement_m" and method in published.CRAWLER:
         value, source = published.CRAWLER[method]
         return value, source
@@ -136,7 +134,6 @@ def leaderboard_rows(found: list[dict]) -> list[dict]:
                 continue
             mean, std, low, high = _stats(values)
             pub, source = _published(task, method, config, metric)
-            ratio = mean / pub if pub not in (None, 0) else None
             rows.append(
                 {
                     "task": task,
@@ -152,12 +149,95 @@ def leaderboard_rows(found: list[dict]) -> list[dict]:
                     "best": max(values) if higher else min(values),
                     "published": "" if pub is None else pub,
                     "published_source": source,
-                    "ratio_to_published": "" if ratio is None else ratio,
-                    "beats_published": ""
-                    if pub is None
-                    else (mean > pub if higher else mean < pub),
                 }
             )
+    return rows
+
+
+TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
+QUALITY = ("cost_of_transport", "slip_per_m", "torque_limit_share", "peak_joint_speed")
+DARWIN_FIELDS = [
+    "rank",
+    "training_task",
+    "method",
+    "config",
+    "n_seeds",
+    "test_score_m",
+    "test_ci95_low",
+    "test_ci95_high",
+    "test_fall_rate",
+    *[f"{tier}_{x}" for tier in TIERS for x in ("score_m", "fall_rate")],
+    *QUALITY,
+    "budget_trials",
+    "budget_sim_steps",
+    "in_sample_best_m",
+    "published_best_trial",
+    "published_source",
+]
+
+
+def _mean(values) -> float | str:
+    values = [v for v in values if isinstance(v, (int, float)) and math.isfinite(v)]
+    return float(np.mean(values)) if values else ""
+
+
+def _test_score(tests: list[dict]) -> tuple[float, float, float]:
+    """Mean test score over seeds; its interval: the run's bootstrap interval for one seed,
+    the t-interval over seeds for more."""
+    scores = [t["all"]["success_weighted_distance_m"]["mean"] for t in tests]
+    if len(scores) == 1:
+        low, high = tests[0]["all"]["success_weighted_distance_m"]["ci95"]
+        return scores[0], low, high
+    mean, _, low, high = _stats(scores)
+    return mean, low, high
+
+
+def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
+    task, method, config = key
+    tests = [s["test"] for s in summaries]
+    score, low, high = _test_score(tests)
+    row = {
+        "training_task": task,
+        "method": method,
+        "config": config,
+        "n_seeds": len(summaries),
+        "test_score_m": score,
+        "test_ci95_low": low,
+        "test_ci95_high": high,
+        "test_fall_rate": _mean([t["all"]["fall_rate"]["value"] for t in tests]),
+        "budget_trials": _mean([s.get("evaluations") for s in summaries]),
+        "budget_sim_steps": _mean(
+            [s.get("sim_steps", 0) + s.get("validation_sim_steps", 0) for s in summaries]
+        ),
+        "in_sample_best_m": _mean([s.get("best_distance_m") for s in summaries]),
+    }
+    for tier in TIERS:
+        cards = [t["tiers"][tier] for t in tests if tier in t["tiers"]]
+        row[f"{tier}_score_m"] = _mean([c["success_weighted_distance_m"]["mean"] for c in cards])
+        row[f"{tier}_fall_rate"] = _mean([c["fall_rate"]["value"] for c in cards])
+    for q in QUALITY:
+        row[q] = _mean([t["all"]["quality"].get(q) for t in tests])
+    pub, source = _published("darwin_walk", method, config, "best_distance_m")
+    row["published_best_trial"] = "" if pub is None else pub
+    row["published_source"] = source
+    return row
+
+
+def darwin_rows(found: list[dict]) -> list[dict]:
+    """DARwIn-OP runs ranked by their test score (success-weighted distance over the four
+    test tiers), one row per (training task, method, configuration) over its seeds.
+
+    The in-sample best stays a column; the study's number sits beside it only (the best
+    trial of one Webots run in its own unit), never as a ratio or a verdict.
+    """
+    groups = defaultdict(list)
+    for run in found:
+        if run["task"].startswith("darwin_walk") and isinstance(run["summary"].get("test"), dict):
+            groups[(run["task"], run["method"], run["config"])].append(run["summary"])
+    rows = [_darwin_row(key, summaries) for key, summaries in groups.items()]
+    rows.sort(key=lambda r: -r["test_score_m"])
+    for rank, row in enumerate(rows, 1):
+        row["rank"] = rank
     return rows
 
 
@@ -351,11 +431,14 @@ def main(argv=None) -> int:
     os.makedirs(out_dir, exist_ok=True)
     write_csv(args.out, rows, LEADERBOARD_FIELDS)
     write_csv(os.path.join(out_dir, "claims.csv"), claims, CLAIM_FIELDS)
+    darwin = darwin_rows(found)
+    write_csv(os.path.join(out_dir, "darwin_leaderboard.csv"), darwin, DARWIN_FIELDS)
     for line in skipped:
         print(f"skipped: {line}", file=sys.stderr)
     judged = sum(c["holds"] != "untested" for c in claims)
     print(
-        f"{len(found)} runs, {len(rows)} leaderboard rows -> {args.out}; {len(claims)} claims "
+        f"{len(found)} runs, {len(rows)} leaderboard rows -> {args.out}; {len(darwin)} DARwIn "
+        f"test-score rows -> darwin_leaderboard.csv; {len(claims)} claims "
         f"({judged} judged) -> {os.path.join(out_dir, 'claims.csv')}"
     )
     return 0

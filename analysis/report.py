@@ -301,7 +301,7 @@ def _markdown_table(rows: list[dict], fields: list[str]) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
+def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", required=True, help="root of the run directories")
     parser.add_argument("--out", required=True, help="output folder")
@@ -310,42 +310,35 @@ def main(argv=None) -> int:
         action="store_true",
         help="also render the hand-tuned and the best gait (needs EGL)",
     )
-    args = parser.parse_args(argv)
-    if not os.path.isdir(args.runs):
-        print(f"error: --runs {args.runs} is not a directory", file=sys.stderr)
-        return 2
-    try:
-        _plt()
-    except ImportError:
-        print("error: the report needs matplotlib: pip install 'cpg-suite[plots]'", file=sys.stderr)
-        return 2
-    os.makedirs(args.out, exist_ok=True)
-    found, skipped = leaderboard.find_runs(args.runs)
-    rows = leaderboard.leaderboard_rows(found)
-    claims = leaderboard.claim_rows(found, args.runs)
+    return parser
+
+
+def _figures(found: list[dict], runs: str, out: str, with_gaits: bool) -> list[tuple]:
     figures = [
-        ("CEM rounds (thesis Fig. 6.2-6.6)", cem_rounds(found, args.out)),
-        (
-            "Joint trajectories, hand-tuned vs best gait (Fig. 6.9)",
-            joint_trajectories(found, args.out),
-        ),
-        ("RMS error of real-time crawler learners (Fig. 4.6)", rms_error(found, args.out)),
-        ("Pole angle traces (Fig. 4.9-4.10)", pole_angles(found, args.out)),
-        ("Value vs policy iteration on tokic (Fig. 4.4)", value_evolution(args.runs, args.out)),
+        ("CEM rounds (thesis Fig. 6.2-6.6)", cem_rounds(found, out)),
+        ("Joint trajectories, hand-tuned vs best gait (Fig. 6.9)", joint_trajectories(found, out)),
+        ("RMS error of real-time crawler learners (Fig. 4.6)", rms_error(found, out)),
+        ("Pole angle traces (Fig. 4.9-4.10)", pole_angles(found, out)),
+        ("Value vs policy iteration on tokic (Fig. 4.4)", value_evolution(runs, out)),
     ]
-    if args.gaits:
-        figures.append(
-            (
-                "Hand-tuned (top) and best gait (bottom), side view (Fig. 6.8)",
-                gaits(found, args.out),
-            )
-        )
-    lines = ["# cpg_suite report", "", f"Runs: `{args.runs}` ({len(found)} runs).", ""]
+    if with_gaits:
+        title = "Hand-tuned (top) and best gait (bottom), side view (Fig. 6.8)"
+        figures.append((title, gaits(found, out)))
+    return figures
+
+
+def _report_lines(runs, found, figures, tables, skipped) -> list[str]:
+    rows, darwin, claims = tables
+    lines = ["# cpg_suite report", "", f"Runs: `{runs}` ({len(found)} runs).", ""]
     for title, path in figures:
         lines += [f"## {title}", ""]
         lines += [f"![{title}]({os.path.basename(path)})" if path else "(no data)", ""]
     lines += [
-        "## Leaderboard",
+        "## DARwIn-OP: test scores (held-out tiers)",
+        "",
+        _markdown_table(darwin, leaderboard.DARWIN_FIELDS) if darwin else "(no scored runs)",
+        "",
+        "## Leaderboard (in-sample and per-method metrics)",
         "",
         _markdown_table(rows, leaderboard.LEADERBOARD_FIELDS),
         "",
@@ -359,20 +352,36 @@ def main(argv=None) -> int:
     ]
     if skipped:
         lines += ["## Skipped run files", ""] + [f"- {s}" for s in skipped] + [""]
+    return lines
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    if not os.path.isdir(args.runs):
+        print(f"error: --runs {args.runs} is not a directory", file=sys.stderr)
+        return 2
+    try:
+        _plt()
+    except ImportError:
+        print("error: the report needs matplotlib: pip install 'cpg-suite[plots]'", file=sys.stderr)
+        return 2
+    os.makedirs(args.out, exist_ok=True)
+    found, skipped = leaderboard.find_runs(args.runs)
+    rows = leaderboard.leaderboard_rows(found)
+    darwin = leaderboard.darwin_rows(found)
+    claims = leaderboard.claim_rows(found, args.runs)
+    figures = _figures(found, args.runs, args.out, args.gaits)
+    lines = _report_lines(args.runs, found, figures, (rows, darwin, claims), skipped)
     with open(os.path.join(args.out, "report.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines))
-    leaderboard.write_csv(
-        os.path.join(args.out, "leaderboard.csv"),
-        rows,
-        leaderboard.LEADERBOARD_FIELDS,
-    )
-    leaderboard.write_csv(
-        os.path.join(args.out, "claims.csv"),
-        claims,
-        leaderboard.CLAIM_FIELDS,
-    )
+    for name, table, fields in (
+        ("leaderboard.csv", rows, leaderboard.LEADERBOARD_FIELDS),
+        ("darwin_leaderboard.csv", darwin, leaderboard.DARWIN_FIELDS),
+        ("claims.csv", claims, leaderboard.CLAIM_FIELDS),
+    ):
+        leaderboard.write_csv(os.path.join(args.out, name), table, fields)
     made = [p for _, p in figures if p]
-    print(f"{len(made)} figures, report.md, leaderboard.csv, claims.csv -> {args.out}")
+    print(f"{len(made)} figures, report.md, leaderboard CSVs, claims.csv -> {args.out}")
     return 0
 
 

@@ -16,8 +16,10 @@ failed trial: it is never the round's or the run's best, and optimizers sort it 
 
 from __future__ import annotations
 
+import base64
 import dataclasses
 import os
+import pickle
 import time
 from collections.abc import Callable
 from typing import Protocol
@@ -539,7 +541,8 @@ def run_optimizer(
             "output_dir": options.output_dir,
             "run_name": options.run_name,
         }
-        command = runs.command_line(f"baselines.{method}", flags_of_run)
+        builtin = method in ("cem", "cmaes")  # a user's optimizer runs from their own code
+        command = runs.command_line(f"baselines.{method}", flags_of_run) if builtin else None
         runs.write_config(run_dir, settings, command)
     with BatchEvaluator(settings.task, settings.trial_steps, options.threads) as evaluator:
         summary = run_rounds(
@@ -552,6 +555,85 @@ def run_optimizer(
             log=log,
         )
     return run_dir, summary
+
+
+class AskTell:
+    """Any ask/tell optimizer (pycma, Nevergrad through a shim, evosax, your own) in the
+    round loop: it needs `ask()` → candidates and `tell(candidates, costs)`.
+
+    The run's mean and spread come from the callables given (default: the optimizer's
+    `mean` and `sigma` attributes, as pycma has them). Checkpoints pickle the optimizer and
+    NumPy's global generator state (some libraries, pycma among them, sample from it), so a
+    killed run resumes where it stopped.
+    """
+
+    def __init__(
+        self,
+        optimizer,
+        mean: Callable[[object], np.ndarray] = lambda o: o.mean,
+        sigma: Callable[[object], float] = lambda o: o.sigma,
+    ):
+        """Args:
+        optimizer: The optimizer object.
+        mean: Its current distribution mean (the candidate tried at the end).
+        sigma: Its average standard deviation (logged in progress.csv).
+        """
+        self.optimizer = optimizer
+        self._mean, self._sigma = mean, sigma
+
+    @property
+    def mean(self) -> np.ndarray:
+        return np.asarray(self._mean(self.optimizer), dtype=np.float64)
+
+    @property
+    def sigma(self) -> float:
+        return float(self._sigma(self.optimizer))
+
+    def ask(self) -> np.ndarray:
+        return np.asarray(self.optimizer.ask(), dtype=np.float64)
+
+    def tell(self, samples: np.ndarray, costs: np.ndarray) -> None:
+        costs = np.where(np.isfinite(costs), costs, np.finfo(np.float64).max)
+        self.optimizer.tell(list(samples), [float(c) for c in costs])
+
+    def state_dict(self) -> dict:
+        kind, keys, pos, has_gauss, cached = np.random.get_state()
+        return {
+            "optimizer": base64.b64encode(pickle.dumps(self.optimizer)).decode("ascii"),
+            "np_random": [kind, keys.tolist(), int(pos), int(has_gauss), float(cached)],
+        }
+
+    def load_state_dict(self, state: dict) -> None:
+        self.optimizer = pickle.loads(base64.b64decode(state["optimizer"]))
+        kind, keys, pos, has_gauss, cached = state["np_random"]
+        np.random.set_state((kind, np.array(keys, dtype=np.uint32), pos, has_gauss, cached))
+
+
+def run(
+    optimizer: Optimizer,
+    settings: OptimizerSettings,
+    options: runs.RunOptions,
+    method: str,
+    log: Callable[[str], None] = progress.write,
+) -> tuple[str, dict]:
+    """Runs any optimizer through the benchmark's loop, run files, selection and scoring.
+
+    Args:
+      optimizer: An `Optimizer` (e.g. `AskTell(cma.CMAEvolutionStrategy(...))`).
+      settings: Budget, task, cost and protocol settings.
+      options: Output directory, run name (default `<method>_seed<seed>`), threads, resume.
+      method: The method's name: the run directory's second level and its leaderboard row.
+      log: Receives progress lines.
+
+    Returns:
+      `(run_dir, summary)`; the summary holds the test score card.
+
+    Raises:
+      runs.RunDirectoryExists, CheckpointError.
+    """
+    if not options.run_name:
+        options = dataclasses.replace(options, run_name=f"{method}_seed{settings.seed}")
+    return run_optimizer(method, optimizer, settings, options, log)
 
 
 def summary_line(run_dir: str, summary: dict) -> str:

@@ -47,7 +47,8 @@ def test_leaderboard_and_claims(tmp_path, capsys):
     k50 = [r for r in rows if r["config"] == "K50_n0.8_e2" and r["metric"] == "best_distance_m"][0]
     assert k50["n"] == "2" and float(k50["mean"]) == 2.5 and float(k50["best"]) == 3.0
     assert float(k50["published"]) == published.TABLE6_3["K50_n0.8_e2"][0]
-    assert k50["beats_published"] == "True" and "CEM-N25" in k50["published_source"]
+    assert "CEM-N25" in k50["published_source"] and "Webots, one run" in k50["published_source"]
+    assert "beats_published" not in k50 and "ratio_to_published" not in k50
     claims = {c["claim_id"]: c for c in _read(out.parent / "claims.csv")}
     assert claims["CR-1"]["holds"] == "yes"
     assert claims["PB-8"]["holds"] == "yes"  # carried over from pole_claims.csv
