@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 from absl import flags
 
-from baselines import cli
+from baselines import cli, progress
 from baselines.gait import evaluate_gait
 from cpg_suite import cpg
 
@@ -129,7 +129,8 @@ def main(argv):
         if new_file:
             writer.writeheader()
         with multiprocessing.Pool(_PROCESSES.value) as pool:
-            for i, row in enumerate(pool.imap(_trial, todo, chunksize=1), 1):
+            trials = pool.imap(_trial, todo, chunksize=1)
+            for i, row in enumerate(progress.track(trials, total=len(todo), desc="trials"), 1):
                 writer.writerow(row)
                 f.flush()
                 if i % 20 == 0 or i == len(todo):

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from absl import flags
 
-from baselines import cli, runs
+from baselines import cli, progress, runs
 from baselines.tabular import models, planning, runner
 
 
@@ -149,7 +149,7 @@ def explore_experiments(output_dir, seeds, resume) -> list[str]:
         "over 100 moves (m) | cycle lengths |",
         "|---|---|---|---|",
     ]
-    for n in EXPLORE_MOVES:
+    for n in progress.track(EXPLORE_MOVES, desc="explore", unit="size"):
         res = [
             _crawler_run(
                 output_dir, "value_iteration", f"explore{n}", s, resume, explore_moves=n, steps=n
@@ -176,7 +176,7 @@ def realtime_experiments(output_dir, seeds, moves, resume) -> tuple[list[str], p
     configs = [(a, a, {}) for a in REALTIME]
     configs += [(a, f"{a}_alpha{al:g}", {"alpha": al}) for a in REALTIME[2:] for al in (0.5, 1.0)]
     configs += [("value_iteration", "value_iteration_eps0.1", {"epsilon": "0.1"})]
-    for algo, name, overrides in configs:
+    for algo, name, overrides in progress.track(configs, desc="crawler", unit="config"):
         for s in range(seeds):
             r = _crawler_run(output_dir, algo, name, s, resume, steps=moves, **overrides)
             rows.append(

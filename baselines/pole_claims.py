@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 from absl import flags
 
-from baselines import cli, runs
+from baselines import cli, progress, runs
 from baselines.tabular import runner
 
 
@@ -121,7 +121,7 @@ def run_all(
     total = len(CONFIGS) * seeds
     done = 0
     start = time.perf_counter()
-    for config in CONFIGS:
+    for config in progress.track(CONFIGS, desc="pole configurations", unit="config"):
         for seed in range(seeds):
             settings = {
                 **config.settings(),
@@ -133,9 +133,9 @@ def run_all(
             run_dir, summary = runner.execute(settings, resume=resume)
             forces = np.array([-1.0, 0.0, 1.0] if settings["actions"] == 3 else [-1.0, 1.0])
             first = min(LAST, settings["steps"])
-            progress = pd.read_csv(os.path.join(run_dir, "progress.csv"))
-            fell = progress["fell"] == 1
-            falls_early = int((fell & (progress["end_step"] <= first)).sum())
+            episodes = pd.read_csv(os.path.join(run_dir, "progress.csv"))
+            fell = episodes["fell"] == 1
+            falls_early = int((fell & (episodes["end_step"] <= first)).sum())
             half = settings["steps"] // 2
             angles = np.load(os.path.join(run_dir, "angles.npy")).astype(np.float64)
             rows.append(
@@ -151,7 +151,7 @@ def run_all(
                     "balanced": bool(summary[f"balanced_last_{LAST}"]),
                     "rms_angle_last": summary[f"rms_angle_last_{LAST}"],
                     "max_abs_angle_last": summary[f"max_abs_angle_last_{LAST}"],
-                    "falls_second_half": int((fell & (progress["end_step"] > half)).sum()),
+                    "falls_second_half": int((fell & (episodes["end_step"] > half)).sum()),
                     "rms_angle_second_half": float(np.sqrt(np.mean(angles[half:] ** 2))),
                     "toward_fall_fraction": _toward_fall_fraction(run_dir, forces),
                     "q_table_abs_max": float(
