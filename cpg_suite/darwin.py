@@ -179,15 +179,13 @@ def walk_randomized(
       A `control.Environment`.
     """
     randomization = randomization or perturbations.Randomization()
-    return _environment(
-        "walk",
+    return _tier(
         time_limit,
         random,
         posture,
-        randomization.init_noise,
-        {"servo_gain": None, "torque_limit": None},
         environment_kwargs,
-        perturbation={"randomization": randomization},
+        randomization.init_noise,
+        randomization=randomization,
     )
 
 
@@ -208,16 +206,8 @@ def walk_push(
     Returns:
       A `control.Environment`.
     """
-    return _environment(
-        "walk",
-        time_limit,
-        random,
-        posture,
-        _INIT_NOISE,
-        {"servo_gain": None, "torque_limit": None},
-        environment_kwargs,
-        perturbation={"pushes": pushes or perturbations.Pushes()},
-    )
+    pushes = pushes or perturbations.Pushes()
+    return _tier(time_limit, random, posture, environment_kwargs, _INIT_NOISE, pushes=pushes)
 
 
 @SUITE.add()
@@ -237,15 +227,15 @@ def walk_rough(
     Returns:
       A `control.Environment`.
     """
+    terrain = terrain or perturbations.Terrain()
+    return _tier(time_limit, random, posture, environment_kwargs, _INIT_NOISE, terrain=terrain)
+
+
+def _tier(time_limit, random, posture, environment_kwargs, init_noise, **perturbation):
+    """The walking task with one perturbation (nominal servos)."""
+    servo = {"servo_gain": None, "torque_limit": None}
     return _environment(
-        "walk",
-        time_limit,
-        random,
-        posture,
-        _INIT_NOISE,
-        {"servo_gain": None, "torque_limit": None},
-        environment_kwargs,
-        perturbation={"terrain": terrain or perturbations.Terrain()},
+        "walk", time_limit, random, posture, init_noise, servo, environment_kwargs, perturbation
     )
 
 
