@@ -15,13 +15,11 @@ Writes `<output_dir>/<algo>/<task or model>/<run_name>/` (docs/architecture.md#r
 
 from __future__ import annotations
 
-import numpy as np
 from absl import flags
 
-import cpg_suite
 from baselines import cli, runs
-from baselines.tabular import discretize, exploration, learners, models, runner
-from baselines.tabular.runner import ALGOS, PLANNERS
+from baselines.tabular import learners, models, runner
+from baselines.tabular.runner import ALGOS
 
 _D = runner.DEFAULTS
 
@@ -134,92 +132,12 @@ def define_flags() -> None:
     )
 
 
-def _validate() -> dict:
-    """Checks the flags; returns them as a settings dict."""
-    cli.check(
-        (_TASK.value is None) != (_MODEL.value is None),
-        f"give exactly one of --task (a discrete task) or --model ({', '.join(models.MODELS)})",
-    )
-    cli.check(_ALGO.value in ALGOS, f"unknown --algo {_ALGO.value!r}; valid: {', '.join(ALGOS)}")
-    if _MODEL.value is not None:
-        cli.check(
-            _MODEL.value in models.MODELS,
-            f"unknown --model {_MODEL.value!r}; valid: {', '.join(models.MODELS)}",
-        )
-    else:
-        try:
-            cpg_suite.split_task_id(_TASK.value)
-        except ValueError as e:
-            raise cli.UsageError(str(e)) from None
-        crawler = _TASK.value.startswith("crawler")
-        cli.check(
-            _ALGO.value not in PLANNERS
-            or (crawler and (_REALTIME.value or _EXPLORE_MOVES.value > 0)),
-            f"{_ALGO.value} needs a complete model (--model=tokic), or on the crawler a model "
-            "measured online (--realtime or --explore_moves=N)",
-        )
-        cli.check(
-            _ALGO.value not in ("td0", "td_lambda") or not _TASK.value.startswith("pole"),
-            f"{_ALGO.value} learns state values and acts through a known successor "
-            "function, which the pole does not have; use q_learning, sarsa or sarsa_lambda",
-        )
-        cli.check(
-            hasattr(cpg_suite.load(_TASK.value).action_spec(), "num_values"),
-            f"{_TASK.value} has continuous actions; tabular methods need a discrete "
-            "task such as pole_balance",
-        )
-        cli.check(
-            _TASK.value.startswith(("pole", "crawler")),
-            f"no discretizer is defined for {_TASK.value}",
-        )
-    for name, flag in (("gamma", _GAMMA), ("alpha", _ALPHA), ("lam", _LAMBDA)):
-        cli.check(0.0 <= flag.value <= 1.0, f"--{name} must lie in [0, 1], got {flag.value}")
-    cli.check(0.0 <= _SLIP.value < 1.0, f"--slip must lie in [0, 1), got {_SLIP.value}")
-    cli.check(_STEPS.value >= 1, f"--steps must be ≥ 1, got {_STEPS.value}")
-    cli.check(
-        _SWEEPS.value is None or _SWEEPS.value >= 0, f"--sweeps must be ≥ 0, got {_SWEEPS.value}"
-    )
-    cli.check(
-        _ITERATIONS.value is None or _ITERATIONS.value >= 1,
-        f"--iterations must be ≥ 1, got {_ITERATIONS.value}",
-    )
-    cli.check(
-        _EVAL_SWEEPS.value is None or _EVAL_SWEEPS.value >= 1,
-        f"--eval_sweeps must be ≥ 1, got {_EVAL_SWEEPS.value}",
-    )
-    cli.check(_TOL.value > 0, f"--tol must be > 0, got {_TOL.value}")
-    cli.check(_SEED.value >= 0, f"--seed must be ≥ 0, got {_SEED.value}")
-    cli.check(_ACTIONS.value in (2, 3), f"--actions must be 2 or 3, got {_ACTIONS.value}")
-    cli.check(
-        _FORCE.value is None or (np.isfinite(_FORCE.value) and _FORCE.value > 0),
-        f"--force must be a positive number of newtons, got {_FORCE.value}",
-    )
-    cli.check(_MOVES.value is None or _MOVES.value >= 1, f"--moves must be ≥ 1, got {_MOVES.value}")
-    cli.check(_EXPLORE_MOVES.value >= 0, f"--explore_moves must be ≥ 0, got {_EXPLORE_MOVES.value}")
-    cli.check(
-        0.0 <= _STOCHASTIC.value < 1.0, f"--stochastic must lie in [0, 1), got {_STOCHASTIC.value}"
-    )
-    cli.check(_EVAL_MOVES.value >= 0, f"--eval_moves must be ≥ 0, got {_EVAL_MOVES.value}")
-    cli.check(
-        not (_ALGO.value == "policy_iteration" and _GAMMA.value >= 1.0 and _MODEL.value is None),
-        "policy_iteration in real time needs --gamma < 1",
-    )
-    try:
-        if _EPSILON.value is not None:
-            exploration.EpsilonSchedule.parse(_EPSILON.value)
-        bins = discretize.parse_bins(_BINS.value)
-    except ValueError as e:
-        raise cli.UsageError(str(e)) from None
-    cli.check(len(bins) in (1, 2), f"--bins takes 1 or 2 counts, got {_BINS.value!r}")
-    settings = {name: flags.FLAGS[name].value for name in runner.DEFAULTS}
-    if _MOVES.value is not None:
-        settings["steps"] = _MOVES.value
-    return settings
-
-
 def main(argv):
     del argv
-    settings = _validate()
+    values = flags.FLAGS
+    cli.check(values.moves is None or values.moves >= 1, f"--moves must be ≥ 1, got {values.moves}")
+    overrides = {"steps": values.moves} if values.moves is not None else {}
+    settings = cli.settings_from_flags(runner.TabularSettings, **overrides)
     try:
         run_dir, summary = runner.execute(settings)
     except runs.RunDirectoryExists as e:

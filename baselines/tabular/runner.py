@@ -7,6 +7,7 @@ setting; `execute(settings)` fills in the defaults, runs, and writes
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 
@@ -21,36 +22,121 @@ from cpg_suite.crawler import GRID
 PLANNERS = ("value_iteration", "policy_iteration")
 ALGOS = PLANNERS + tuple(learners.LEARNERS)
 
-# Every setting of a tabular run and its default.
-DEFAULTS = {
-    "task": None,
-    "model": None,
-    "algo": "q_learning",
-    "gamma": 0.9,
-    "alpha": 0.1,
-    "lam": 0.9,
-    "trace": "accumulating",
-    "double_alpha": False,
-    "epsilon": None,
-    "steps": 20000,
-    "sweeps": None,
-    "iterations": None,
-    "eval_sweeps": None,
-    "tol": 1e-9,
-    "slip": 0.0,
-    "bins": "20x20",
-    "force": None,
-    "actions": 3,
-    "reward": "angle",
-    "seed": 0,
-    "output_dir": "runs",
-    "run_name": None,
-    "overwrite": False,
-    "realtime": False,
-    "explore_moves": 0,
-    "stochastic": 0.0,
-    "eval_moves": 100,
-}
+
+@dataclasses.dataclass(frozen=True)
+class TabularSettings:
+    """Every setting of a tabular run (the flags of `python -m baselines.tabular`).
+
+    Exactly one of `task` (a discrete task id) and `model` (a tabular model) is given; see
+    the CLI's flag help for each field. Validated on construction.
+    """
+
+    task: str | None = None
+    model: str | None = None
+    algo: str = "q_learning"
+    gamma: float = 0.9
+    alpha: float = 0.1
+    lam: float = 0.9
+    trace: str = "accumulating"
+    double_alpha: bool = False
+    epsilon: str | None = None
+    steps: int = 20000
+    sweeps: int | None = None
+    iterations: int | None = None
+    eval_sweeps: int | None = None
+    tol: float = 1e-9
+    slip: float = 0.0
+    bins: str = "20x20"
+    force: float | None = None
+    actions: int = 3
+    reward: str = "angle"
+    seed: int = 0
+    output_dir: str = "runs"
+    run_name: str | None = None
+    overwrite: bool = False
+    realtime: bool = False
+    explore_moves: int = 0
+    stochastic: float = 0.0
+    eval_moves: int = 100
+
+    def __post_init__(self):
+        _check_target(self)
+        _check_ranges(self)
+        try:
+            if self.epsilon is not None:
+                exploration.EpsilonSchedule.parse(self.epsilon)
+            bins = discretize.parse_bins(self.bins)
+        except ValueError as e:
+            raise ValueError(str(e)) from None
+        require(len(bins) in (1, 2), f"--bins takes 1 or 2 counts, got {self.bins!r}")
+
+
+def require(condition: bool, message: str) -> None:
+    if not condition:
+        raise ValueError(message)
+
+
+def _check_target(s: TabularSettings) -> None:
+    """The task or model, and which algorithms can run on it."""
+    require(
+        (s.task is None) != (s.model is None),
+        f"give exactly one of --task (a discrete task) or --model ({', '.join(models.MODELS)})",
+    )
+    require(s.algo in ALGOS, f"unknown --algo {s.algo!r}; valid: {', '.join(ALGOS)}")
+    if s.model is not None:
+        require(
+            s.model in models.MODELS,
+            f"unknown --model {s.model!r}; valid: {', '.join(models.MODELS)}",
+        )
+        return
+    cpg_suite.split_task_id(s.task)  # ValueError listing the valid ids
+    crawler = s.task.startswith("crawler")
+    require(
+        s.algo not in PLANNERS or (crawler and (s.realtime or s.explore_moves > 0)),
+        f"{s.algo} needs a complete model (--model=tokic), or on the crawler a model "
+        "measured online (--realtime or --explore_moves=N)",
+    )
+    require(
+        s.algo not in ("td0", "td_lambda") or not s.task.startswith("pole"),
+        f"{s.algo} learns state values and acts through a known successor "
+        "function, which the pole does not have; use q_learning, sarsa or sarsa_lambda",
+    )
+    require(
+        hasattr(cpg_suite.load(s.task).action_spec(), "num_values"),
+        f"{s.task} has continuous actions; tabular methods need a discrete "
+        "task such as pole_balance",
+    )
+    require(s.task.startswith(("pole", "crawler")), f"no discretizer is defined for {s.task}")
+
+
+def _check_ranges(s: TabularSettings) -> None:
+    """Numeric ranges of the settings."""
+    for name in ("gamma", "alpha", "lam"):
+        value = getattr(s, name)
+        require(0.0 <= value <= 1.0, f"--{name} must lie in [0, 1], got {value}")
+    require(0.0 <= s.slip < 1.0, f"--slip must lie in [0, 1), got {s.slip}")
+    require(s.steps >= 1, f"--steps must be ≥ 1, got {s.steps}")
+    for name, low in (("sweeps", 0), ("iterations", 1), ("eval_sweeps", 1)):
+        value = getattr(s, name)
+        require(value is None or value >= low, f"--{name} must be ≥ {low}, got {value}")
+    require(s.tol > 0, f"--tol must be > 0, got {s.tol}")
+    require(s.seed >= 0, f"--seed must be ≥ 0, got {s.seed}")
+    require(s.actions in (2, 3), f"--actions must be 2 or 3, got {s.actions}")
+    require(
+        s.force is None or (np.isfinite(s.force) and s.force > 0),
+        f"--force must be a positive number of newtons, got {s.force}",
+    )
+    require(s.explore_moves >= 0, f"--explore_moves must be ≥ 0, got {s.explore_moves}")
+    require(0.0 <= s.stochastic < 1.0, f"--stochastic must lie in [0, 1), got {s.stochastic}")
+    require(s.eval_moves >= 0, f"--eval_moves must be ≥ 0, got {s.eval_moves}")
+    require(
+        not (s.algo == "policy_iteration" and s.gamma >= 1.0 and s.model is None),
+        "policy_iteration in real time needs --gamma < 1",
+    )
+
+
+# Every setting of a tabular run and its default (the fields of `TabularSettings`).
+DEFAULTS = {f.name: f.default for f in dataclasses.fields(TabularSettings)}
 
 # The study's real-time ε schedule (thesis Sec. 4.1.7): 0.9 for 100 moves, 0 at move 300.
 CRAWLER_EPSILON = "0:0.9,100:0.9,300:0"
@@ -376,11 +462,12 @@ def run_online_on_task(run_dir: str, settings: dict) -> dict:
     return summary
 
 
-def execute(settings: dict, resume: bool = False) -> tuple[str, dict]:
+def execute(settings: TabularSettings | dict, resume: bool = False) -> tuple[str, dict]:
     """Runs one experiment and writes its run directory.
 
     Args:
-      settings: Settings (missing keys take `DEFAULTS`); assumed valid.
+      settings: The settings, or a dict of them (missing keys take their defaults);
+        validated either way.
       resume: If the run directory already holds a `summary.json`, return it without
         running again (a finished run is never repeated).
 
@@ -390,8 +477,11 @@ def execute(settings: dict, resume: bool = False) -> tuple[str, dict]:
     Raises:
       runs.RunDirectoryExists: If the run directory exists and neither `overwrite` nor
         `resume` applies.
+      ValueError: On invalid settings.
     """
-    settings = {**DEFAULTS, **settings}
+    if isinstance(settings, dict):
+        settings = TabularSettings(**settings)
+    settings = dataclasses.asdict(settings)
     task = settings["task"] or settings["model"]
     run_name = settings["run_name"] or f"seed{settings['seed']}"
     summary_path = os.path.join(
@@ -406,7 +496,12 @@ def execute(settings: dict, resume: bool = False) -> tuple[str, dict]:
         run_name,
         overwrite=settings["overwrite"] or resume,
     )
-    runs.write_config(run_dir, settings)
+    flags_of_run = {k: v for k, v in settings.items() if k not in ("overwrite",)}
+    runs.write_config(
+        run_dir,
+        settings,
+        runs.command_line("baselines.tabular", {**flags_of_run, "run_name": run_name}),
+    )
     start = time.perf_counter()
     if settings["model"] is not None:
         model = models.MODELS[settings["model"]](slip=settings["slip"])
