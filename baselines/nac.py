@@ -40,6 +40,7 @@ CPG alone) and after learning.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time
@@ -353,6 +354,51 @@ def train(settings: dict, log=print) -> dict:
     }
 
 
+@dataclasses.dataclass(frozen=True)
+class NACSettings:
+    """Every setting of a NAC run (the flags of `python -m baselines.nac`); validated."""
+
+    task: str = "darwin_balance"
+    steps: int = 20000
+    alpha: float = 100.0
+    beta: float = 0.9
+    gamma: float = 0.95
+    lam: float = 0.8
+    sigma: float = 5.0
+    ridge: float = 0.01
+    normalize: bool = True
+    constant_rule: str = "one"
+    eps_a: float = 1e-6
+    accuracy_angle: float = 10.0
+    check_every: int = 50
+    fall_penalty: float = 1.0
+    eval_seeds: int = 5
+    seed: int = 0
+    output_dir: str = "runs"
+    run_name: str | None = None
+    overwrite: bool = False
+
+    def __post_init__(self):
+        require = cli.require
+        require(self.task in TASKS, f"unknown --task {self.task!r}; valid: {', '.join(TASKS)}")
+        require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
+        require(self.alpha >= 0, f"--alpha must be ≥ 0, got {self.alpha}")
+        for name in ("beta", "lam"):
+            value = getattr(self, name)
+            require(0.0 <= value <= 1.0, f"--{name} must lie in [0, 1], got {value}")
+        require(0.0 <= self.gamma < 1.0, f"--gamma must lie in [0, 1), got {self.gamma}")
+        require(self.sigma > 0, f"--sigma must be > 0, got {self.sigma}")
+        require(self.ridge >= 0, f"--ridge must be ≥ 0, got {self.ridge}")
+        require(self.eps_a > 0, f"--eps_a must be > 0, got {self.eps_a}")
+        require(
+            0 < self.accuracy_angle <= 180,
+            f"--accuracy_angle must lie in (0, 180], got {self.accuracy_angle}",
+        )
+        require(self.check_every >= 1, f"--check_every must be ≥ 1, got {self.check_every}")
+        require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
+        require(self.fall_penalty >= 0, f"--fall_penalty must be ≥ 0, got {self.fall_penalty}")
+
+
 def default_run_name(settings: dict) -> str:
     fixes = ("norm" if settings["normalize"] else "nonorm") + (
         f"_ridge{settings['ridge']:g}" if settings["ridge"] else "_noridge"
@@ -360,8 +406,23 @@ def default_run_name(settings: dict) -> str:
     return f"{fixes}_seed{settings['seed']}"
 
 
-def run_nac(settings: dict, log=print) -> tuple[str, dict]:
-    """Trains, evaluates before and after, and writes the run directory."""
+def run_nac(settings: NACSettings | dict, log=print) -> tuple[str, dict]:
+    """Trains, evaluates before and after, and writes the run directory.
+
+    Args:
+      settings: The settings, or a dict of them (missing keys take their defaults).
+      log: Receives progress lines.
+
+    Returns:
+      `(run_dir, summary)`.
+
+    Raises:
+      ValueError: On invalid settings.
+      runs.RunDirectoryExists: If the run directory exists and `overwrite` is off.
+    """
+    if isinstance(settings, dict):
+        settings = NACSettings(**settings)
+    settings = dataclasses.asdict(settings)
     run_name = settings.get("run_name") or default_run_name(settings)
     run_dir = runs.run_directory(
         settings["output_dir"],
@@ -370,7 +431,9 @@ def run_nac(settings: dict, log=print) -> tuple[str, dict]:
         run_name,
         overwrite=settings.get("overwrite", False),
     )
-    runs.write_config(run_dir, settings)
+    flags_of_run = {k: v for k, v in settings.items() if k != "overwrite"}
+    command = runs.command_line("baselines.nac", {**flags_of_run, "run_name": run_name})
+    runs.write_config(run_dir, settings, command)
     start = time.perf_counter()
     record = train(settings, log)
     seeds = range(100, 100 + settings["eval_seeds"])
@@ -410,45 +473,7 @@ def run_nac(settings: dict, log=print) -> tuple[str, dict]:
 
 def main(argv):
     del argv
-    cli.check(_TASK.value in TASKS, f"unknown --task {_TASK.value!r}; valid: {', '.join(TASKS)}")
-    cli.check(_STEPS.value >= 1, f"--steps must be ≥ 1, got {_STEPS.value}")
-    cli.check(_ALPHA.value >= 0, f"--alpha must be ≥ 0, got {_ALPHA.value}")
-    for name, flag in (("beta", _BETA), ("lam", _LAMBDA)):
-        cli.check(0.0 <= flag.value <= 1.0, f"--{name} must lie in [0, 1], got {flag.value}")
-    cli.check(0.0 <= _GAMMA.value < 1.0, f"--gamma must lie in [0, 1), got {_GAMMA.value}")
-    cli.check(_SIGMA.value > 0, f"--sigma must be > 0, got {_SIGMA.value}")
-    cli.check(_RIDGE.value >= 0, f"--ridge must be ≥ 0, got {_RIDGE.value}")
-    cli.check(_EPS_A.value > 0, f"--eps_a must be > 0, got {_EPS_A.value}")
-    cli.check(
-        0 < _ACCURACY.value <= 180, f"--accuracy_angle must lie in (0, 180], got {_ACCURACY.value}"
-    )
-    cli.check(_CHECK_EVERY.value >= 1, f"--check_every must be ≥ 1, got {_CHECK_EVERY.value}")
-    cli.check(_EVAL_SEEDS.value >= 1, f"--eval_seeds must be ≥ 1, got {_EVAL_SEEDS.value}")
-    cli.check(_FALL_PENALTY.value >= 0, f"--fall_penalty must be ≥ 0, got {_FALL_PENALTY.value}")
-    settings = {
-        name: flags.FLAGS[name].value
-        for name in (
-            "task",
-            "steps",
-            "alpha",
-            "beta",
-            "gamma",
-            "lam",
-            "sigma",
-            "ridge",
-            "normalize",
-            "constant_rule",
-            "eps_a",
-            "accuracy_angle",
-            "check_every",
-            "fall_penalty",
-            "eval_seeds",
-            "seed",
-            "output_dir",
-            "run_name",
-            "overwrite",
-        )
-    }
+    settings = cli.settings_from_flags(NACSettings)
     try:
         run_dir, summary = run_nac(settings)
     except runs.RunDirectoryExists as e:
