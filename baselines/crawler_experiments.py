@@ -23,6 +23,7 @@ in the main table. `--resume` reuses finished runs. Not a test: an experiment (~
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import numpy as np
@@ -244,23 +245,51 @@ def stochastic_experiments(output_dir, seeds, moves, resume) -> list[str]:
     ]
 
 
-def main(argv):
-    del argv
-    cli.check(_SEEDS.value >= 1, f"--seeds must be ≥ 1, got {_SEEDS.value}")
-    cli.check(_MOVES.value >= 300, f"--moves must be ≥ 300 (the ε schedule), got {_MOVES.value}")
-    out = _OUTPUT_DIR.value
+@dataclasses.dataclass(frozen=True)
+class CrawlerExperimentSettings:
+    """The crawler experiments: seeds, learning moves, where, resume or not."""
+
+    output_dir: str = "runs/crawler"
+    seeds: int = 5
+    moves: int = 1000
+    resume: bool = False
+
+    def __post_init__(self):
+        cli.require(self.seeds >= 1, f"--seeds must be ≥ 1, got {self.seeds}")
+        cli.require(self.moves >= 300, f"--moves must be ≥ 300 (the ε schedule), got {self.moves}")
+
+
+def run_experiments(settings: CrawlerExperimentSettings) -> list[str]:
+    """Runs experiments a-d and writes their tables; returns the markdown lines.
+
+    Raises:
+      runs.RunDirectoryExists: If a run exists and `resume` is off.
+    """
+    out, seeds, moves, resume = (
+        settings.output_dir,
+        settings.seeds,
+        settings.moves,
+        settings.resume,
+    )
     os.makedirs(out, exist_ok=True)
-    try:
-        lines = ["# The study's crawler experiments, measured", ""]
-        lines += tokic_experiments(out)
-        lines += explore_experiments(out, _SEEDS.value, _RESUME.value)
-        realtime, df = realtime_experiments(out, _SEEDS.value, _MOVES.value, _RESUME.value)
-        lines += realtime
-        lines += stochastic_experiments(out, _SEEDS.value, _MOVES.value, _RESUME.value)
-    except runs.RunDirectoryExists as e:
-        raise cli.UsageError(f"{e}; pass --resume to reuse finished runs") from None
+    lines = ["# The study's crawler experiments, measured", ""]
+    lines += tokic_experiments(out)
+    lines += explore_experiments(out, seeds, resume)
+    realtime, df = realtime_experiments(out, seeds, moves, resume)
+    lines += realtime
+    lines += stochastic_experiments(out, seeds, moves, resume)
     runs.write_text(os.path.join(out, "crawler_realtime.csv"), df.to_csv(index=False))
     runs.write_text(os.path.join(out, "crawler_experiments.md"), "\n".join(lines) + "\n")
+    return lines
+
+
+def main(argv):
+    del argv
+    settings = cli.settings_from_flags(CrawlerExperimentSettings)
+    try:
+        lines = run_experiments(settings)
+    except runs.RunDirectoryExists as e:
+        raise cli.UsageError(f"{e}; pass --resume to reuse finished runs") from None
     print("\n".join(lines))
 
 

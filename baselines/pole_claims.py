@@ -463,26 +463,53 @@ def _has_tabulate() -> bool:
     return True
 
 
-def main(argv):
-    del argv
-    cli.check(_SEEDS.value >= 2, f"--seeds must be ≥ 2, got {_SEEDS.value}")
-    cli.check(_STEPS.value > LAST, f"--steps must exceed {LAST}, got {_STEPS.value}")
-    cli.check(_FORCE_STEPS.value >= 1, f"--force_steps must be ≥ 1, got {_FORCE_STEPS.value}")
-    output_dir = _OUTPUT_DIR.value
-    os.makedirs(output_dir, exist_ok=True)
-    try:
-        per_run = run_all(output_dir, _SEEDS.value, _STEPS.value, _FORCE_STEPS.value, _RESUME.value)
-    except runs.RunDirectoryExists as e:
-        raise cli.UsageError(f"{e}; pass --resume to reuse finished runs") from None
+@dataclasses.dataclass(frozen=True)
+class PoleClaimsSettings:
+    """The pole claims experiment: how many seeds and steps, where, resume or not."""
+
+    output_dir: str = "runs/pole_claims"
+    seeds: int = 5
+    steps: int = 20000
+    force_steps: int = 5000
+    resume: bool = False
+
+    def __post_init__(self):
+        cli.require(self.seeds >= 2, f"--seeds must be ≥ 2, got {self.seeds}")
+        cli.require(self.steps > LAST, f"--steps must exceed {LAST}, got {self.steps}")
+        cli.require(self.force_steps >= 1, f"--force_steps must be ≥ 1, got {self.force_steps}")
+
+
+def run_experiment(settings: PoleClaimsSettings) -> list[dict]:
+    """Runs (or reuses) every pole run, aggregates them, judges the claims, writes the files.
+
+    Returns:
+      The judged claims.
+
+    Raises:
+      runs.RunDirectoryExists: If a run exists and `resume` is off.
+    """
+    out = settings.output_dir
+    os.makedirs(out, exist_ok=True)
+    per_run = run_all(out, settings.seeds, settings.steps, settings.force_steps, settings.resume)
     agg = aggregate(per_run)
     claims = evaluate_claims(agg)
-    runs.write_text(os.path.join(output_dir, "pole_runs.csv"), per_run.to_csv(index=False))
-    runs.write_text(os.path.join(output_dir, "pole_experiments.csv"), agg.to_csv(index=False))
-    runs.write_rows_csv(os.path.join(output_dir, "pole_claims.csv"), claims)
-    runs.write_text(os.path.join(output_dir, "pole_claims.md"), _markdown(claims, agg))
+    runs.write_text(os.path.join(out, "pole_runs.csv"), per_run.to_csv(index=False))
+    runs.write_text(os.path.join(out, "pole_experiments.csv"), agg.to_csv(index=False))
+    runs.write_rows_csv(os.path.join(out, "pole_claims.csv"), claims)
+    runs.write_text(os.path.join(out, "pole_claims.md"), _markdown(claims, agg))
+    return claims
+
+
+def main(argv):
+    del argv
+    settings = cli.settings_from_flags(PoleClaimsSettings)
+    try:
+        claims = run_experiment(settings)
+    except runs.RunDirectoryExists as e:
+        raise cli.UsageError(f"{e}; pass --resume to reuse finished runs") from None
     for c in claims:
         print(f"{c['claim_id']:6s} {c['holds']:3s} {c['statement']}\n       {c['evidence']}")
-    print(f"wrote {os.path.join(output_dir, 'pole_claims.md')}")
+    print(f"wrote {os.path.join(settings.output_dir, 'pole_claims.md')}")
 
 
 if __name__ == "__main__":
