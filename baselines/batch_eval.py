@@ -33,19 +33,14 @@ from mujoco import rollout
 
 import cpg_suite
 from baselines import quality as gait_quality
+from baselines.gait import DARWIN_TASKS
 from cpg_suite import cpg, darwin
 
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 _CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
 _CTRL_AND_PUSH = _CTRL | int(mujoco.mjtState.mjSTATE_XFRC_APPLIED)
 # The DARwIn-OP tasks this evaluator runs: the nominal tasks and the perturbed test tiers.
-TASKS = (
-    "darwin_walk",
-    "darwin_balance",
-    "darwin_walk_randomized",
-    "darwin_walk_push",
-    "darwin_walk_rough",
-)
+TASKS = DARWIN_TASKS
 
 
 @dataclasses.dataclass

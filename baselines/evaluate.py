@@ -11,15 +11,14 @@ control step and is the reference that faster evaluators are checked against.
 
 from __future__ import annotations
 
+import dataclasses
 import json
-import os
 
-import numpy as np
 from absl import flags
 
 from baselines import cli
 from baselines.batch_eval import BatchEvaluator
-from baselines.gait import DARWIN_TASKS, evaluate_gait, summarize
+from baselines.gait import DARWIN_TASKS, evaluate_gait, parse_params, summarize
 from cpg_suite import cpg
 
 
@@ -38,38 +37,37 @@ def define_flags() -> None:
     _THREADS = flags.DEFINE_integer("threads", 2, "Threads of the --fast evaluator.")
 
 
-def parse_params(text: str) -> np.ndarray:
-    """A preset name or a JSON file of amplitudes -> (11,) degrees.
+@dataclasses.dataclass(frozen=True)
+class EvaluateSettings:
+    """Which gait to evaluate, where and how (the flags of `python -m baselines.evaluate`)."""
 
-    Raises:
-      cli.UsageError: With the valid presets, or what is wrong with the file.
-    """
-    if text in cpg.PRESETS:
-        return cpg.amplitudes_from(text)
-    if not os.path.isfile(text):
-        raise cli.UsageError(
-            f"--params {text!r} is neither a preset ({', '.join(cpg.PRESETS)}) "
-            "nor an existing JSON file"
+    task: str = "darwin_walk"
+    params: str = "hand_tuned"
+    seeds: str = "0-9"
+    steps: int = 1000
+    fast: bool = False
+    threads: int = 2
+
+    def __post_init__(self):
+        cli.require(
+            self.task in DARWIN_TASKS,
+            f"unknown --task {self.task!r}; valid: {', '.join(DARWIN_TASKS)}",
         )
-    try:
-        return cpg.load_amplitudes(text)
-    except (ValueError, json.JSONDecodeError) as e:
-        raise cli.UsageError(f"--params file {text}: {e}") from None
+        cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
+        cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
 
 
 def main(argv):
     del argv
-    cli.check(
-        _TASK.value in DARWIN_TASKS,
-        f"unknown --task {_TASK.value!r}; valid: {', '.join(DARWIN_TASKS)}",
-    )
-    cli.check(_STEPS.value >= 1, f"--steps must be ≥ 1, got {_STEPS.value}")
-    cli.check(_THREADS.value >= 1, f"--threads must be ≥ 1, got {_THREADS.value}")
-    amplitudes = parse_params(_PARAMS.value)
-    seeds = cli.parse_seeds(_SEEDS.value)
+    settings = cli.settings_from_flags(EvaluateSettings)
+    try:
+        amplitudes = parse_params(settings.params)
+    except ValueError as e:
+        raise cli.UsageError(str(e)) from None
+    seeds = cli.parse_seeds(settings.seeds)
     results = []
-    if _FAST.value:
-        with BatchEvaluator(_TASK.value, _STEPS.value, _THREADS.value) as evaluator:
+    if settings.fast:
+        with BatchEvaluator(settings.task, settings.steps, settings.threads) as evaluator:
             batch = evaluator.evaluate(amplitudes, seeds)
         for j, seed in enumerate(seeds):
             step = int(batch.fall_step[0, j])
@@ -85,10 +83,10 @@ def main(argv):
             print(json.dumps(results[-1]))
     else:
         for seed in seeds:
-            result = evaluate_gait(amplitudes, seed, _TASK.value, _STEPS.value)
+            result = evaluate_gait(amplitudes, seed, settings.task, settings.steps)
             results.append(result)
             print(json.dumps(result), flush=True)
-    print(json.dumps({**summarize(results), "task": _TASK.value, "params": _PARAMS.value}))
+    print(json.dumps({**summarize(results), "task": settings.task, "params": settings.params}))
 
 
 if __name__ == "__main__":

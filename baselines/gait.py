@@ -15,7 +15,14 @@ from dm_control.rl import control as rl_control
 import cpg_suite
 from cpg_suite import cpg, darwin
 
-DARWIN_TASKS = ("darwin_walk", "darwin_balance")
+# The DARwIn-OP tasks a CPG gait runs on: the walking tiers and balancing.
+DARWIN_TASKS = (
+    "darwin_walk",
+    "darwin_balance",
+    "darwin_walk_randomized",
+    "darwin_walk_push",
+    "darwin_walk_rough",
+)
 
 
 def evaluate_gait(
