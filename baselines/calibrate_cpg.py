@@ -16,11 +16,11 @@ millimetres of displacement (the study: 0.0036 m).
 from __future__ import annotations
 
 import csv
+import dataclasses
 import itertools
 import multiprocessing
 import os
 
-import numpy as np
 import pandas as pd
 from absl import flags
 
@@ -61,12 +61,45 @@ def _floats(text: str, name: str) -> list[float]:
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
-        raise cli.UsageError(f"--{name} must be a comma list of numbers, got {text!r}") from None
-    cli.check(
+        raise ValueError(f"--{name} must be a comma list of numbers, got {text!r}") from None
+    cli.require(
         bool(values) and all(v > 0 for v in values),
         f"--{name} must be positive numbers, got {text!r}",
     )
     return values
+
+
+@dataclasses.dataclass(frozen=True)
+class CalibrationSettings:
+    """The sweep: comma lists of the constants to try, presets, seeds, output, workers."""
+
+    output: str = "runs/calibration.csv"
+    periods: str = "0.8,1.1,1.4"
+    betas: str = "4,8,16"
+    crouches: str = "15,23,30"
+    gains: str = "20,40,80"
+    params: str = "hand_tuned,table6_1,table6_2"
+    seeds: int = 3
+    processes: int = 2
+    resume: bool = False
+
+    def __post_init__(self):
+        self.grid()  # validates the lists
+        for p in self.presets():
+            cli.require(p in cpg.PRESETS, f"unknown preset {p!r}; valid: {', '.join(cpg.PRESETS)}")
+        cli.require(self.seeds >= 1, f"--seeds must be ≥ 1, got {self.seeds}")
+        cli.require(self.processes >= 1, f"--processes must be ≥ 1, got {self.processes}")
+
+    def grid(self) -> list[tuple]:
+        """(period, β, crouch, gain) of every setting."""
+        lists = [_floats(getattr(self, n), n) for n in ("periods", "betas", "crouches", "gains")]
+        return list(itertools.product(*lists))
+
+    def presets(self) -> list[str]:
+        return [p for p in self.params.split(",") if p]
+
+    def jobs(self) -> list[tuple]:
+        return [(*g, p, s) for g in self.grid() for p in self.presets() for s in range(self.seeds)]
 
 
 def _trial(job: tuple) -> dict:
@@ -101,47 +134,35 @@ def summarize(trials: pd.DataFrame) -> pd.DataFrame:
 
 def main(argv):
     del argv
-    grid = list(
-        itertools.product(
-            _floats(_PERIODS.value, "periods"),
-            _floats(_BETAS.value, "betas"),
-            _floats(_CROUCHES.value, "crouches"),
-            _floats(_GAINS.value, "gains"),
-        )
-    )
-    params = [p for p in _PARAMS.value.split(",") if p]
-    for p in params:
-        cli.check(p in cpg.PRESETS, f"unknown preset {p!r}; valid: {', '.join(cpg.PRESETS)}")
-    cli.check(_SEEDS.value >= 1, f"--seeds must be ≥ 1, got {_SEEDS.value}")
-    cli.check(_PROCESSES.value >= 1, f"--processes must be ≥ 1, got {_PROCESSES.value}")
-    jobs = [(*g, p, s) for g in grid for p in params for s in range(_SEEDS.value)]
+    settings = cli.settings_from_flags(CalibrationSettings)
+    output = settings.output
+    jobs = settings.jobs()
     done = set()
-    if _RESUME.value and os.path.exists(_OUTPUT.value):
-        old = pd.read_csv(_OUTPUT.value)
+    if settings.resume and os.path.exists(output):
+        old = pd.read_csv(output)
         done = {tuple(r) for r in old[FIELDS[:6]].itertuples(index=False)}
-    elif os.path.exists(_OUTPUT.value):
-        raise cli.UsageError(f"{_OUTPUT.value} exists; pass --resume to extend it")
+    elif os.path.exists(output):
+        raise cli.UsageError(f"{output} exists; pass --resume to extend it")
     todo = [j for j in jobs if j not in done]
-    os.makedirs(os.path.dirname(os.path.abspath(_OUTPUT.value)), exist_ok=True)
-    new_file = not os.path.exists(_OUTPUT.value)
-    with open(_OUTPUT.value, "a", newline="", encoding="utf-8") as f:
+    os.makedirs(os.path.dirname(os.path.abspath(output)), exist_ok=True)
+    new_file = not os.path.exists(output)
+    with open(output, "a", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=FIELDS)
         if new_file:
             writer.writeheader()
-        with multiprocessing.Pool(_PROCESSES.value) as pool:
+        with multiprocessing.Pool(settings.processes) as pool:
             trials = pool.imap(_trial, todo, chunksize=1)
             for i, row in enumerate(progress.track(trials, total=len(todo), desc="trials"), 1):
                 writer.writerow(row)
                 f.flush()
                 if i % 20 == 0 or i == len(todo):
                     print(f"{i}/{len(todo)} trials", flush=True)
-    table = summarize(pd.read_csv(_OUTPUT.value))
+    table = summarize(pd.read_csv(output))
     if "hand_tuned_falls" in table:
         table["abs_hand_tuned_m"] = table["hand_tuned_distance_m"].abs()
         table = table.sort_values(["hand_tuned_falls", "abs_hand_tuned_m"])
     with pd.option_context("display.width", 200, "display.max_rows", 500):
         print(table.to_string(index=False, float_format=lambda v: f"{v:.4f}"))
-    np.set_printoptions(precision=4)
 
 
 if __name__ == "__main__":
