@@ -13,9 +13,11 @@ amplitudes by name.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import sys
 
+import numpy as np
 from absl import flags
 
 from cpg_suite import cpg, darwin
@@ -66,65 +68,101 @@ def _fail(message: str) -> None:
     raise SystemExit(2)
 
 
-def main(argv):
-    if len(argv) > 1:
-        _fail(f"unexpected arguments {argv[1:]}; all options are --flags")
-    if _TASK.value not in DARWIN_TASKS:
-        _fail(
-            f"unknown --task {_TASK.value!r}; explore renders CPG gaits on: "
-            f"{', '.join(DARWIN_TASKS)}"
-        )
-    for name, flag, low in (
-        ("steps", _STEPS, 1),
-        ("width", _WIDTH, 16),
-        ("height", _HEIGHT, 16),
-        ("every", _EVERY, 1),
-        ("frames", _FRAMES, 1),
-    ):
-        if flag.value < low:
-            _fail(f"--{name} must be ≥ {low}, got {flag.value}")
-    if _STRIP_START.value < 0 or (_STRIP_STEP.value is not None and _STRIP_STEP.value <= 0):
-        _fail("--strip_start must be ≥ 0 and --strip_step > 0")
-    try:
-        if os.path.isfile(_PARAMS.value):
-            amplitudes = cpg.load_amplitudes(_PARAMS.value)
-        else:
-            amplitudes = cpg.amplitudes_from(_PARAMS.value)
-    except ValueError as e:
-        _fail(f"--params: {e}")
-    try:
-        import PIL  # noqa: F401
-    except ImportError:
-        _fail("rendering needs Pillow: pip install 'cpg-suite[plots]'")
-    os.makedirs(_OUT.value, exist_ok=True)
-    name = os.path.splitext(os.path.basename(_PARAMS.value))[0]
-    cameras = list(dict.fromkeys([_CAMERA.value, _STRIP_CAMERA.value]))
+@dataclasses.dataclass(frozen=True)
+class RenderSettings:
+    """What to render and how (the flags of `python -m cpg_suite.explore`); validated."""
+
+    task: str = "darwin_walk"
+    params: str = "hand_tuned"
+    out: str = "renders"
+    seed: int = 0
+    steps: int = 1000
+    camera: str = "side"
+    strip_camera: str = "front"
+    width: int = 480
+    height: int = 360
+    every: int = 2
+    frames: int = 8
+    strip_start: float = 5.0
+    strip_step: float | None = None
+    format: str = "auto"
+
+    def __post_init__(self):
+        if self.task not in DARWIN_TASKS:
+            raise ValueError(
+                f"unknown --task {self.task!r}; explore renders CPG gaits on: "
+                f"{', '.join(DARWIN_TASKS)}"
+            )
+        for name, low in (("steps", 1), ("width", 16), ("height", 16), ("every", 1), ("frames", 1)):
+            if getattr(self, name) < low:
+                raise ValueError(f"--{name} must be ≥ {low}, got {getattr(self, name)}")
+        if self.strip_start < 0 or (self.strip_step is not None and self.strip_step <= 0):
+            raise ValueError("--strip_start must be ≥ 0 and --strip_step > 0")
+
+    def amplitudes(self) -> np.ndarray:
+        """The gait: a preset or a JSON file of amplitudes (ValueError if neither)."""
+        if os.path.isfile(self.params):
+            return cpg.load_amplitudes(self.params)
+        return cpg.amplitudes_from(self.params)
+
+
+def _check_cameras(cameras: list[str]) -> None:
     model = darwin.Physics.from_xml_string(*darwin.get_model_and_assets()).model
     known = [model.id2name(i, "camera") for i in range(model.ncam)]
     for camera in cameras:
         if camera not in known:
             _fail(f"unknown camera {camera!r}; valid: {', '.join(known)}")
+
+
+def render(settings: RenderSettings, amplitudes: np.ndarray) -> tuple[str, str, str]:
+    """Renders the gait's video and filmstrip into `settings.out`.
+
+    Returns:
+      `(video path, filmstrip path, status)`.
+    """
+    os.makedirs(settings.out, exist_ok=True)
+    name = os.path.splitext(os.path.basename(settings.params))[0]
+    cameras = list(dict.fromkeys([settings.camera, settings.strip_camera]))
     frames, times, fell_at = render_gait(
-        _TASK.value,
+        settings.task,
         amplitudes,
-        _SEED.value,
-        _STEPS.value,
+        settings.seed,
+        settings.steps,
         cameras,
-        _WIDTH.value,
-        _HEIGHT.value,
-        _EVERY.value,
+        settings.width,
+        settings.height,
+        settings.every,
     )
-    video = write_video(
-        frames[0],
-        os.path.join(_OUT.value, name),
-        1.0 / (darwin.CONTROL_TIMESTEP * _EVERY.value),
-        _FORMAT.value,
-    )
-    strip_path = os.path.join(_OUT.value, f"{name}_filmstrip.png")
-    step = _STRIP_STEP.value or cpg.CPGConfig().stride_period / 4
-    filmstrip(frames[-1], times, _FRAMES.value, name, _STRIP_START.value, step).save(strip_path)
+    fps = 1.0 / (darwin.CONTROL_TIMESTEP * settings.every)
+    video = write_video(frames[0], os.path.join(settings.out, name), fps, settings.format)
+    strip_path = os.path.join(settings.out, f"{name}_filmstrip.png")
+    step = settings.strip_step or cpg.CPGConfig().stride_period / 4
+    strip = filmstrip(frames[-1], times, settings.frames, name, settings.strip_start, step)
+    strip.save(strip_path)
     status = f"fell at step {fell_at}" if fell_at else "no fall"
-    print(f"{video}\n{strip_path}\n{len(times)} frames, {status}")
+    return video, strip_path, f"{len(times)} frames, {status}"
+
+
+def main(argv):
+    if len(argv) > 1:
+        _fail(f"unexpected arguments {argv[1:]}; all options are --flags")
+    fields = [f.name for f in dataclasses.fields(RenderSettings)]
+    try:
+        settings = RenderSettings(**{n: flags.FLAGS[n].value for n in fields})
+        amplitudes = settings.amplitudes()
+    except ValueError as e:
+        _fail(
+            f"--params: {e}"
+            if str(e).startswith(("unknown amplitude", "amplitudes", "expected"))
+            else str(e)
+        )
+    try:
+        import PIL  # noqa: F401
+    except ImportError:
+        _fail("rendering needs Pillow: pip install 'cpg-suite[plots]'")
+    _check_cameras([settings.camera, settings.strip_camera])
+    video, strip_path, status = render(settings, amplitudes)
+    print(f"{video}\n{strip_path}\n{status}")
 
 
 def _choose_backend() -> None:
