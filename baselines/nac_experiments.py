@@ -15,6 +15,7 @@ after learning, the paired difference with a 95 % t-interval, max |θ| and diver
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import numpy as np
@@ -108,17 +109,34 @@ def table_row(name: str, summaries: list[dict]) -> str:
     )
 
 
-def main(argv):
-    del argv
-    values = flags.FLAGS
-    cli.check(values.seeds >= 2, f"--seeds must be ≥ 2, got {values.seeds}")
-    cli.check(values.steps >= 100, f"--steps must be ≥ 100, got {values.steps}")
-    out = values.output_dir
+@dataclasses.dataclass(frozen=True)
+class NACExperimentSettings:
+    """The NAC experiments: seeds per configuration, learning steps, evaluation states."""
+
+    output_dir: str = "runs"
+    seeds: int = 5
+    steps: int = 20000
+    eval_seeds: int = 5
+    resume: bool = False
+
+    def __post_init__(self):
+        cli.require(self.seeds >= 2, f"--seeds must be ≥ 2, got {self.seeds}")
+        cli.require(self.steps >= 100, f"--steps must be ≥ 100, got {self.steps}")
+        cli.require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
+
+
+def run_experiments(settings: NACExperimentSettings) -> list[str]:
+    """Runs (or reuses) every configuration's runs; writes and returns the markdown table.
+
+    Raises:
+      runs.RunDirectoryExists: If a run exists and `resume` is off.
+    """
+    s = settings
     lines = [
         "# NAC on the DMP term: the study's finding and the reward hypothesis",
         "",
-        f"{values.steps} learning steps per run; rewards are per control step, evaluated "
-        f"with u = F over {values.eval_seeds} initial states (seeds 100 on); "
+        f"{s.steps} learning steps per run; rewards are per control step, evaluated "
+        f"with u = F over {s.eval_seeds} initial states (seeds 100 on); "
         "Δ = after − before, paired "
         "by run, 95 % t-interval over seeds.",
         "",
@@ -127,16 +145,21 @@ def main(argv):
         "|---|---|---|---|---|---|---|---|",
     ]
     for name in CONFIGS:
-        try:
-            summaries = run_configuration(
-                name, values.seeds, values.steps, values.eval_seeds, out, values.resume
-            )
-        except runs.RunDirectoryExists as e:
-            raise cli.UsageError(f"{e}; pass --resume to reuse finished runs") from None
+        summaries = run_configuration(name, s.seeds, s.steps, s.eval_seeds, s.output_dir, s.resume)
         lines.append(table_row(name, summaries))
     lines.append("")
-    os.makedirs(out, exist_ok=True)
-    runs.write_text(os.path.join(out, "nac_experiments.md"), "\n".join(lines) + "\n")
+    os.makedirs(s.output_dir, exist_ok=True)
+    runs.write_text(os.path.join(s.output_dir, "nac_experiments.md"), "\n".join(lines) + "\n")
+    return lines
+
+
+def main(argv):
+    del argv
+    settings = cli.settings_from_flags(NACExperimentSettings)
+    try:
+        lines = run_experiments(settings)
+    except runs.RunDirectoryExists as e:
+        raise cli.UsageError(f"{e}; pass --resume to reuse finished runs") from None
     print("\n".join(lines))
 
 
