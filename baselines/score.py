@@ -189,12 +189,28 @@ def policy_trial(
     env = cpg_suite.load(tier, task_kwargs={"random": seed, "time_limit": float("inf")})
     if hasattr(policy, "reset"):
         policy.reset()
-    time_step = env.reset()
-    physics, task = env.physics, env.task
+    observation = env.reset().observation
+    physics = env.physics
+    start = physics.torso_position()
+    n_sub = int(round(env.control_timestep() / physics.model.opt.timestep))
+    last, fall_step, records = _step_policy(policy, env.task, physics, observation, steps, n_sub)
+    last = start if last is None else last
+    distance = float(last[0] - start[0])
+    return {
+        "distance_m": distance,
+        "lateral_m": float(last[1] - start[1]),
+        "fell": bool(fall_step),
+        "fall_step": fall_step,
+        "sim_steps": len(records),
+        "quality": _quality(records, physics, distance),
+    }
+
+
+def _step_policy(policy, task, physics, observation, steps: int, n_sub: int):
+    """The control loop: returns the torso position after the last valid control step
+    (None if none), the 1-based fall step (0: none) and the per-physics-step records."""
     model, data = physics.model.ptr, physics.data.ptr
-    n_sub = int(round(env.control_timestep() / model.opt.timestep))
-    start = last = physics.torso_position()
-    records, fall_step, observation = [], 0, time_step.observation
+    last, records = None, []
     for t in range(steps):
         task.before_step(policy(observation), physics)
         clear_invalid_state_warnings(data)
@@ -202,35 +218,28 @@ def policy_trial(
             mujoco.mj_step(model, data)
             records.append(_record(physics))
         if invalid_state(data):
-            fall_step = t + 1
-            break
-        mujoco.mj_step1(model, data)
+            return last, t + 1, records
+        mujoco.mj_step1(model, data)  # positions and velocities for the observation
         task.after_step(physics)
         last = physics.torso_position()
         observation = task.get_observation(physics)
         if physics.fallen():
-            fall_step = t + 1
-            break
-    distance = float(last[0] - start[0])
+            return last, t + 1, records
+    return last, 0, records
+
+
+def _quality(records: list, physics, distance: float) -> dict:
     columns = [np.array(c) for c in zip(*records)] if records else [np.zeros((0, 12))] * 4
-    measured = gait_quality.measures(
+    return gait_quality.measures(
         columns[0],
         columns[1],
         columns[2].reshape(-1, 2),
         columns[3].reshape(-1, 2, 3),
-        timestep=float(model.opt.timestep),
+        timestep=float(physics.model.opt.timestep),
         torque_limit=physics.torque_limit(),
         mass=physics.total_mass(),
         distance=distance,
     )
-    return {
-        "distance_m": distance,
-        "lateral_m": float(last[1] - start[1]),
-        "fell": bool(fall_step),
-        "fall_step": fall_step,
-        "sim_steps": len(records),
-        "quality": measured,
-    }
 
 
 def _record(physics) -> tuple:
