@@ -1,12 +1,12 @@
 """Published numbers and claims of the study, with their sources.
 
-* `published.csv`: every number and claim row of the project's digest of the thesis
-  (the thesis, docs/study.md; ids like `CEM-N25`): domain, method, setting, quantity, value, unit,
-  thesis section/table/figure, kind (number / claim).
-* `published_claims.csv`: every testable claim of the digest's narrative (ids like `CR-1`,
+* `published.csv`: every number and claim row we took from the thesis
+  (docs/study.md#ids-of-published-numbers-and-claims; ids like `CEM-N25`): domain, method,
+  setting, quantity, value, unit, thesis section/table/figure, kind (number / claim).
+* `published_claims.csv`: every testable claim of the thesis' text (ids like `CR-1`,
   `PB-8`, `NAC-3`), with its statement.
 
-Both were extracted from the digest of Duarte's thesis ("Using Reinforcement Learning in the
+Both were extracted from Duarte's thesis ("Using Reinforcement Learning in the
 tuning of Central Pattern Generators", U. Minho); distances are its "u.d." (units of
 distance, never defined; Webots' default unit is the metre).
 """

@@ -13,10 +13,13 @@ Algorithm 5.1, one control step t (16 ms):
 
   3  draw u ~ π(u | x_t), apply it; 4  observe r_t and x_{t+1}
   7  φ̃_t = [φ(x_{t+1}); 0]                   8  φ̂_t = [φ(x_t); ∇_θ log π(u_t | x_t)]
-  9  z ← λ z + φ̂_t                          10  A ← A + z (φ̂_t − γ φ̃_t)ᵀ   (γ restored, §4.5)
-  11 b ← b + z r_t                          12  [v; w] = (A + δ I)⁻¹ b      (ridge δ, §4.7)
+  9  z ← λ z + φ̂_t                          10  A ← A + z (φ̂_t − γ φ̃_t)ᵀ   (γ restored)
+  11 b ← b + z r_t                          12  [v; w] = (A + δ I)⁻¹ b      (ridge δ)
   14 if the gradient estimate is accurate:  15  θ ← θ + α w
   16-17 forget: z ← β z, A ← β A, b ← β b   (only after an actor update)
+
+The γ restored in line 10, the ridge δ and the forgetting rule are our readings of the
+printed algorithm (docs/decisions.md#nac).
 
 Basis φ(x) (15): 1, the 12 joint positions the CPG generates (rad), and the two phases
 (wrapped to [0, 2π)). With `--normalize` each is divided by its running standard

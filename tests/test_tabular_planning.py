@@ -36,7 +36,7 @@ def test_tokic_model_shape(tokic):
     assert tokic.n_states == 25 and tokic.n_actions == 4
     assert tokic.allowed.sum() == 80  # 4 corners × 2 + 12 edges × 3 + 9 interior × 4
     np.testing.assert_allclose(tokic.transitions[tokic.allowed].sum(axis=1), 1.0)
-    # The thesis example: the move (2,2) -> (3,2) earns 6 (L434).
+    # The thesis example: the move (2,2) -> (3,2) earns 6 (thesis Sec. 4.1.1).
     assert tokic.rewards[12, 2, 17] == 6
 
 
