@@ -135,6 +135,7 @@ class BatchEvaluator:
         self.control_timestep = env.control_timestep()
         self.n_sub = int(round(self.control_timestep / self.model.opt.timestep))
         self._episodes: dict[int, Episode] = {}
+        self._reset_env = cpg_suite.load(task, task_kwargs=self._task_kwargs)
         self._torso = env.physics.torso_body()
         nq = self.model.nq
         self._leg_qvel = 1 + nq + env.physics.leg_dofs()  # in the FULLPHYSICS state
@@ -163,9 +164,11 @@ class BatchEvaluator:
         self.close()
 
     def episode(self, seed: int) -> Episode:
-        """The task's episode for `seed` (the environment seeded with it, reset once)."""
+        """The task's episode for `seed`: one environment, reseeded and reset (the same
+        draws as a new environment created with `random=seed`)."""
         if seed not in self._episodes:
-            env = cpg_suite.load(self.task, task_kwargs={**self._task_kwargs, "random": seed})
+            env = self._reset_env
+            env.task.reseed(seed)
             env.reset()
             model, data = env.physics.model.ptr, env.physics.data.ptr
             state = np.empty(mujoco.mj_stateSize(model, _STATE))

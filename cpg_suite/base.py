@@ -64,6 +64,14 @@ class Task(suite_base.Task):
     its reward into [0, 1] with `reward_to_unit` before the colours are blended.
     """
 
+    def reseed(self, seed: int) -> None:
+        """Replaces the task's random generator by a new one seeded with `seed`.
+
+        The next reset then draws exactly what a task created with `random=seed` draws in
+        its first episode: evaluators reuse one environment for many seeds this way.
+        """
+        self._random = np.random.RandomState(seed)
+
     def action_spec(self, physics):
         """The task's own action spec, `self._action_spec` (set by each task)."""
         del physics

@@ -5,8 +5,17 @@ import re
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SOURCES = ("cpg_suite", "baselines", "analysis", "benchmarks", "tests", "docs")
-CITATION = re.compile(r"docs/([A-Za-z0-9_./-]+\.md)(?:#([a-z0-9-]+))?")
-OUTSIDE = re.compile(r"DESIGN Sec|THESIS\.md|facts Sec|darwin_op_facts|shared/spec")
+# A citation: docs/<file>.md, optionally #<anchor> (GitHub-style: the heading in lower case,
+# punctuation dropped, spaces as hyphens). Upper case is captured so that it fails.
+CITATION = re.compile(r"docs/([A-Za-z0-9_./-]+\.md)(?:#([A-Za-z0-9_-]+))?")
+# A relative markdown link between the documents: [text](file.md#anchor).
+DOC_LINK = re.compile(r"\]\(([A-Za-z0-9_./-]+\.md)(?:#([A-Za-z0-9_-]+))?\)")
+# Documents that do not ship with the repository: the design and digest files, the robot's
+# fact sheet, section signs and line numbers of those files.
+OUTSIDE = re.compile(
+    r"DESIGN(?:\.md| Sec)|THESIS\.md|facts Sec|facts sheet|darwin_op_facts|shared/(?:spec|seed)"
+    r"|§\s?\d|\(L\d{3,}[,)]"
+)
 
 
 def _files():
@@ -21,9 +30,12 @@ def _files():
 def _anchors(path: str) -> set:
     """GitHub-style anchors of a markdown file's headings."""
     anchors = set()
+    fenced = False
     with open(path, encoding="utf-8") as f:
         for line in f:
-            if line.startswith("#"):
+            if line.startswith("```"):
+                fenced = not fenced
+            elif not fenced and re.match(r"#{1,6} ", line):
                 title = line.lstrip("#").strip().lower()
                 title = re.sub(r"[^\w\- ]", "", title, flags=re.UNICODE)
                 anchors.add(title.replace(" ", "-"))
@@ -44,6 +56,29 @@ def test_every_cited_document_and_section_exists():
     assert cited >= 20
 
 
+def test_links_between_documents_resolve():
+    docs = os.path.join(ROOT, "docs")
+    for name in sorted(os.listdir(docs)):
+        if not name.endswith(".md"):
+            continue
+        with open(os.path.join(docs, name), encoding="utf-8") as f:
+            text = f.read()
+        for target, anchor in DOC_LINK.findall(text):
+            path = os.path.normpath(os.path.join(docs, target))
+            assert os.path.isfile(path), f"docs/{name} links missing {target}"
+            if anchor:
+                assert anchor in _anchors(path), f"docs/{name} links missing {target}#{anchor}"
+
+
+def test_every_document_is_in_the_index():
+    docs = os.path.join(ROOT, "docs")
+    with open(os.path.join(docs, "README.md"), encoding="utf-8") as f:
+        index = f.read()
+    for name in sorted(os.listdir(docs)):
+        if name.endswith(".md") and name != "README.md":
+            assert f"]({name})" in index, f"docs/README.md does not list {name}"
+
+
 def test_no_citation_points_outside_the_repository():
     this = os.path.abspath(__file__)
     for path in _files():
@@ -56,4 +91,4 @@ def test_no_citation_points_outside_the_repository():
 
 def test_readme_links_the_docs():
     with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
-        assert "](docs/" in f.read()
+        assert "](docs/README.md)" in f.read()
