@@ -166,7 +166,7 @@ DARWIN_FIELDS = [
     "test_ci95_low",
     "test_ci95_high",
     "test_fall_rate",
-    *[f"{tier}_{x}" for tier in TIERS for x in ("score_m", "fall_rate")],
+    *[f"{tier}_{x}" for tier in TIERS for x in ("score_m", "ci95_low", "ci95_high", "fall_rate")],
     *QUALITY,
     "budget_trials",
     "budget_sim_steps",
@@ -181,12 +181,13 @@ def _mean(values) -> float | str:
     return float(np.mean(values)) if values else ""
 
 
-def _test_score(tests: list[dict]) -> tuple[float, float, float]:
-    """Mean test score over seeds; its interval: the run's bootstrap interval for one seed,
-    the t-interval over seeds for more."""
-    scores = [t["all"]["success_weighted_distance_m"]["mean"] for t in tests]
+def _test_score(tests: list[dict], tier: str | None = None) -> tuple[float, float, float]:
+    """Mean test score over seeds (all tiers, or one); its interval: the run's bootstrap
+    interval for one seed, the t-interval over seeds for more."""
+    cards = [t["all"] if tier is None else t["tiers"][tier] for t in tests]
+    scores = [c["success_weighted_distance_m"]["mean"] for c in cards]
     if len(scores) == 1:
-        low, high = tests[0]["all"]["success_weighted_distance_m"]["ci95"]
+        low, high = cards[0]["success_weighted_distance_m"]["ci95"]
         return scores[0], low, high
     mean, _, low, high = _stats(scores)
     return mean, low, high
@@ -212,9 +213,13 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
         "in_sample_best_m": _mean([s.get("best_distance_m") for s in summaries]),
     }
     for tier in TIERS:
-        cards = [t["tiers"][tier] for t in tests if tier in t["tiers"]]
-        row[f"{tier}_score_m"] = _mean([c["success_weighted_distance_m"]["mean"] for c in cards])
-        row[f"{tier}_fall_rate"] = _mean([c["fall_rate"]["value"] for c in cards])
+        if all(tier in t["tiers"] for t in tests):
+            mean, low, high = _test_score(tests, tier)
+            falls = _mean([t["tiers"][tier]["fall_rate"]["value"] for t in tests])
+        else:
+            mean = low = high = falls = ""
+        row[f"{tier}_score_m"], row[f"{tier}_fall_rate"] = mean, falls
+        row[f"{tier}_ci95_low"], row[f"{tier}_ci95_high"] = low, high
     for q in QUALITY:
         row[q] = _mean([t["all"]["quality"].get(q) for t in tests])
     pub, source = _published("darwin_walk", method, config, "best_distance_m")

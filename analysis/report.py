@@ -96,6 +96,55 @@ def cem_rounds(found: list[dict], out: str) -> str | None:
     return _save(plt, fig, out, "cem_rounds.png")
 
 
+def score_vs_budget(found: list[dict], out: str) -> str | None:
+    """Validation score of the mean against the simulation budget, one line per run."""
+    curves = []
+    for run in sorted(found, key=lambda r: (r["task"], r["method"], r["config"], r["seed"] or 0)):
+        if not run["task"].startswith("darwin_walk"):
+            continue
+        rows = [
+            r for r in _read_csv(os.path.join(run["dir"], "progress.csv")) if r.get("validation_m")
+        ]
+        if rows:
+            steps = [float(r["sim_steps"]) / 1e6 for r in rows]
+            label = (
+                f"{run['method']} {run['config']} ({run['task'].replace('darwin_walk', 'walk')})"
+            )
+            curves.append((label, steps, [float(r["validation_m"]) for r in rows]))
+    if not curves:
+        return None
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for label, steps, values in curves:
+        ax.plot(steps, values, marker="o", markersize=3, label=label)
+    ax.set_xlabel("training budget (million physics steps)")
+    ax.set_ylabel("validation success-weighted distance (m)")
+    ax.legend(fontsize=7)
+    return _save(plt, fig, out, "score_vs_budget.png")
+
+
+def tier_scores(darwin: list[dict], out: str) -> str | None:
+    """Test score per tier with its interval, one group of bars per scored configuration."""
+    if not darwin:
+        return None
+    plt = _plt()
+    tiers = leaderboard.TIERS
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    width = 0.8 / len(darwin)
+    for i, row in enumerate(darwin):
+        values = np.array([row[f"{t}_score_m"] or 0.0 for t in tiers])
+        low = np.array([row[f"{t}_ci95_low"] or 0.0 for t in tiers])
+        high = np.array([row[f"{t}_ci95_high"] or 0.0 for t in tiers])
+        x = np.arange(len(tiers)) + i * width
+        label = f"{row['method']} {row['config']} ({row['training_task']})"
+        ax.bar(x, values, width, label=label, yerr=[values - low, high - values], capsize=2)
+    ax.set_xticks(np.arange(len(tiers)) + 0.4 - width / 2)
+    ax.set_xticklabels([t.replace("darwin_walk", "walk") for t in tiers])
+    ax.set_ylabel("test success-weighted distance (m)")
+    ax.legend(fontsize=7)
+    return _save(plt, fig, out, "tier_scores.png")
+
+
 def joint_trajectories(found: list[dict], out: str) -> str | None:
     """Hip, knee and ankle pitch (deg) of both legs, hand-tuned vs the best CEM gait."""
     best, best_distance = _best_gait_file(found)
@@ -314,7 +363,10 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _figures(found: list[dict], runs: str, out: str, with_gaits: bool) -> list[tuple]:
+    darwin = leaderboard.darwin_rows(found)
     figures = [
+        ("Validation score vs simulation budget", score_vs_budget(found, out)),
+        ("Test score per tier", tier_scores(darwin, out)),
         ("CEM rounds (thesis Fig. 6.2-6.6)", cem_rounds(found, out)),
         ("Joint trajectories, hand-tuned vs best gait (Fig. 6.9)", joint_trajectories(found, out)),
         ("RMS error of real-time crawler learners (Fig. 4.6)", rms_error(found, out)),
