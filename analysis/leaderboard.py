@@ -271,6 +271,17 @@ def claim_rows(found: list[dict], root: str) -> list[dict]:
             "holds": "yes" if holds else "no",
         }
 
+    for judge in (tokic_claims, cem_claims, nac_claims, crawler_claims):
+        judge(by, put)
+    for cid, statement in published.CLAIMS.items():
+        claims.setdefault(
+            cid, {"claim_id": cid, "statement": statement, "evidence": "", "holds": "untested"}
+        )
+    return sorted(claims.values(), key=lambda c: c["claim_id"])
+
+
+def tokic_claims(by: dict, put) -> None:
+    """CR-1: value iteration on the Tokic model converges to the 6-state cycle."""
     tokic = [
         s
         for (t, m, _), ss in by.items()
@@ -285,18 +296,18 @@ def claim_rows(found: list[dict], root: str) -> list[dict]:
             f"value iteration on tokic (γ 0.9, converged): cycle lengths {lengths}",
             all(n == 6 for n in lengths),
         )
+
+
+def _mean_best(by: dict, config: str) -> float:
+    values = [s["best_distance_m"] for s in by.get(("darwin_walk", "cem", config), [])]
+    return float(np.mean(values)) if values else float("nan")
+
+
+def cem_claims(by: dict, put) -> None:
+    """CEM-N37 (elite 2 is best) and CEM-N32/33 (noise 1.0 and 0.2 do worse than 0.8)."""
     elite = {}
     for noise in ("0", "0.8"):
-        means = {
-            e: np.mean(
-                [
-                    s["best_distance_m"]
-                    for s in by.get(("darwin_walk", "cem", f"K10_n{noise}_e{e}"), [])
-                ]
-                or [np.nan]
-            )
-            for e in (1, 2, 3, 4)
-        }
+        means = {e: _mean_best(by, f"K10_n{noise}_e{e}") for e in (1, 2, 3, 4)}
         if not all(np.isnan(v) for v in means.values()):
             elite[noise] = means
     if elite:
@@ -309,13 +320,14 @@ def claim_rows(found: list[dict], root: str) -> list[dict]:
             + ", ".join(f"noise {n}: elite {w} ({elite[n][w]:.3f} m)" for n, w in winners.items()),
             all(w == 2 for w in winners.values()),
         )
-    ref = by.get(("darwin_walk", "cem", "K10_n0.8_e2"), [])
     for cid, cfg in (("CEM-N32", "K10_n1_e2"), ("CEM-N33", "K10_n0.2_e2")):
-        other = by.get(("darwin_walk", "cem", cfg), [])
-        if ref and other:
-            a = np.mean([s["best_distance_m"] for s in ref])
-            b = np.mean([s["best_distance_m"] for s in other])
+        a, b = _mean_best(by, "K10_n0.8_e2"), _mean_best(by, cfg)
+        if not (np.isnan(a) or np.isnan(b)):
             put(cid, f"mean best distance {cfg}: {b:.3f} m vs noise 0.8: {a:.3f} m", b < a)
+
+
+def nac_claims(by: dict, put) -> None:
+    """NAC-1 (θ blows up without the fixes) and NAC-3 (no significant reward change)."""
     nofix = by.get(("darwin_balance", "nac", "nofix"), [])
     fixes = by.get(("darwin_balance", "nac", "fixes"), [])
     if nofix:
@@ -326,26 +338,17 @@ def claim_rows(found: list[dict], root: str) -> list[dict]:
             f"diverged {sum(s['diverged'] for s in nofix)}/{len(nofix)}",
             sum(s["diverged"] for s in nofix) > len(nofix) / 2,
         )
-    if fixes:
-        delta = [
-            s["reward_after"] - s["reward_before"]
-            for s in fixes
-            if s.get("reward_after") is not None
-        ]
-        if delta:
-            mean, _, low, high = _stats(delta)
-            put(
-                "NAC-3",
-                f"normalisation + ridge: reward change {mean:+.5f} m/step, 95% CI "
-                f"({low:+.5f}, {high:+.5f}) over {len(delta)} seeds",
-                low <= 0.0 <= high,
-            )
-    crawler_claims(by, put)
-    for cid, statement in published.CLAIMS.items():
-        claims.setdefault(
-            cid, {"claim_id": cid, "statement": statement, "evidence": "", "holds": "untested"}
+    delta = [
+        s["reward_after"] - s["reward_before"] for s in fixes if s.get("reward_after") is not None
+    ]
+    if delta:
+        mean, _, low, high = _stats(delta)
+        put(
+            "NAC-3",
+            f"normalisation + ridge: reward change {mean:+.5f} m/step, 95% CI "
+            f"({low:+.5f}, {high:+.5f}) over {len(delta)} seeds",
+            low <= 0.0 <= high,
         )
-    return sorted(claims.values(), key=lambda c: c["claim_id"])
 
 
 def crawler_claims(by: dict, put) -> None:
