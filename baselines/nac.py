@@ -275,84 +275,101 @@ def evaluate_policy(
     return {"reward_per_step": float(np.mean(rewards)), "per_seed": rewards, "falls": falls}
 
 
+@dataclasses.dataclass
+class _Tally:
+    """What a training run keeps count of, and the progress window between report rows."""
+
+    episode: int = 0
+    falls: int = 0
+    theta_norm_max: float = 0.0
+    diverged: bool = False
+    reward_sum: float = 0.0
+    reward_n: int = 0
+    f_abs_max: float = 0.0
+    rows: list = dataclasses.field(default_factory=list)
+
+    def track_theta(self, theta: np.ndarray) -> float:
+        norm = float(np.linalg.norm(theta))
+        if not np.isfinite(norm) or norm > THETA_LIMIT:
+            self.diverged = True
+        self.theta_norm_max = max(self.theta_norm_max, norm if np.isfinite(norm) else np.inf)
+        return norm
+
+    def close_window(self, step: int, norm: float, updates: int) -> str:
+        """Appends a progress row for the window that ends at `step`; returns its line."""
+        mean = self.reward_sum / self.reward_n
+        self.rows.append(
+            {
+                "step": step,
+                "episode": self.episode,
+                "mean_reward": mean,
+                "theta_norm": norm,
+                "max_abs_F": self.f_abs_max,
+                "updates": updates,
+                "falls": self.falls,
+            }
+        )
+        line = (
+            f"step {step:6d}  reward/step {mean:+.5f}  |θ| {norm:.3g}  "
+            f"max|F| {self.f_abs_max:.3g}  actor updates {updates}  falls {self.falls}"
+        )
+        self.reward_sum, self.reward_n, self.f_abs_max = 0.0, 0, 0.0
+        return line
+
+
+def _learner(settings: dict) -> NaturalActorCritic:
+    keys = ("alpha", "beta", "gamma", "lam", "ridge", "eps_a", "accuracy_angle", "check_every")
+    return NaturalActorCritic(N_FEATURES, cpg.N_KERNELS, *(settings[k] for k in keys))
+
+
+def _episode(settings: dict, episode: int):
+    """A fresh environment and CPG for an episode (the seed's own state first, then new ones)."""
+    seed = settings["seed"] if episode == 0 else settings["seed"] * 100_003 + episode
+    env = cpg_suite.load(settings["task"], task_kwargs={"random": seed})
+    pattern = cpg.CPG("hand_tuned")
+    env.reset()
+    return env, pattern
+
+
 def train(settings: dict, log=print) -> dict:
     """Runs Algorithm 5.1 for `steps` control steps; returns the learning record."""
     rng = np.random.default_rng(settings["seed"])
-    nac = NaturalActorCritic(
-        N_FEATURES,
-        cpg.N_KERNELS,
-        settings["alpha"],
-        settings["beta"],
-        settings["gamma"],
-        settings["lam"],
-        settings["ridge"],
-        settings["eps_a"],
-        settings["accuracy_angle"],
-        settings["check_every"],
-    )
+    nac = _learner(settings)
     features = Features(settings["normalize"], settings["constant_rule"])
-    episode = 0
-    env = cpg_suite.load(settings["task"], task_kwargs={"random": settings["seed"]})
+    tally = _Tally()
+    env, pattern = _episode(settings, 0)
     dt = env.control_timestep()
-    pattern = cpg.CPG("hand_tuned")
-    env.reset()
     x = features(pattern)
-    rows, theta_norm_max, diverged, falls = [], 0.0, False, 0
-    reward_sum, reward_n, f_abs_max = 0.0, 0, 0.0
     for t in range(settings["steps"]):
         mean, u, score = dmp_policy(nac.theta, pattern.phases(), settings["sigma"], rng)
-        f_abs_max = max(f_abs_max, float(np.abs(mean).max()))
+        tally.f_abs_max = max(tally.f_abs_max, float(np.abs(mean).max()))
         pattern.set_roll_input(u)
         ts = env.step(env.physics.targets_to_action(pattern.step(dt)))
-        reward = float(ts.reward)
         fell = ts.last() and ts.discount == 0.0
-        if fell:
-            reward -= settings["fall_penalty"]
-            falls += 1
+        reward = float(ts.reward) - (settings["fall_penalty"] if fell else 0.0)
+        tally.falls += int(bool(fell))
         x_next = features(pattern)
         nac.step(x, score, reward, x_next, terminal=fell)
-        reward_sum += reward
-        reward_n += 1
-        norm = float(np.linalg.norm(nac.theta))
-        if not np.isfinite(norm) or norm > THETA_LIMIT:
-            diverged = True
-        theta_norm_max = max(theta_norm_max, norm if np.isfinite(norm) else np.inf)
+        tally.reward_sum += reward
+        tally.reward_n += 1
+        norm = tally.track_theta(nac.theta)
         if ts.last():
-            episode += 1
+            tally.episode += 1
             nac.clear_trace()
-            env = cpg_suite.load(
-                settings["task"], task_kwargs={"random": settings["seed"] * 100_003 + episode}
-            )
-            pattern = cpg.CPG("hand_tuned")
-            env.reset()
+            env, pattern = _episode(settings, tally.episode)
             x_next = features(pattern)
         x = x_next
-        if (t + 1) % 500 == 0 or diverged:
-            rows.append(
-                {
-                    "step": t + 1,
-                    "episode": episode,
-                    "mean_reward": reward_sum / reward_n,
-                    "theta_norm": norm,
-                    "max_abs_F": f_abs_max,
-                    "updates": nac.updates,
-                    "falls": falls,
-                }
-            )
-            log(
-                f"step {t + 1:6d}  reward/step {reward_sum / reward_n:+.5f}  |θ| {norm:.3g}  "
-                f"max|F| {f_abs_max:.3g}  actor updates {nac.updates}  falls {falls}"
-            )
-            reward_sum, reward_n, f_abs_max = 0.0, 0, 0.0
-        if diverged:
+        if (t + 1) % 500 == 0 or tally.diverged:
+            log(tally.close_window(t + 1, norm, nac.updates))
+        if tally.diverged:
             break
     return {
         "theta": nac.theta,
-        "rows": rows,
-        "theta_norm_max": theta_norm_max,
-        "diverged": diverged,
+        "rows": tally.rows,
+        "theta_norm_max": tally.theta_norm_max,
+        "diverged": tally.diverged,
         "updates": nac.updates,
-        "falls": falls,
+        "falls": tally.falls,
         "steps": t + 1,
     }
 
