@@ -295,28 +295,59 @@ def run_crawler(run_dir: str, settings: dict) -> dict:
     Then the greedy policy is frozen and run for `eval_moves` moves: its displacement is the
     figure of merit; its cycle is read from the grid model from cell (0, 0).
     """
+    env, grid, to_state = _crawler_env(settings)
+    learner, schedule, result, values = _learn_online(env, grid, to_state, settings)
+    # Freeze and evaluate the greedy policy from where learning ended.
+    policy = np.array([learner.greedy(s) for s in range(grid.n_states)])
+    displacement = _run_policy(env, learner, to_state, settings["eval_moves"])
+    rewards = learned_reward_table(result.states, result.actions, result.rewards, grid)
+    learned = models.grid_model(rewards, name="crawler_learned")
+    reference = planning.value_iteration(learned, settings["gamma"], tol=1e-10).values
+    rms = np.sqrt(np.mean((values - reference) ** 2, axis=1))
+    _write_crawler_files(run_dir, result, schedule, rms, rewards, values, learner)
+    cycle = planning.policy_cycle(learned, policy)  # its reward: the learned move rewards
+    return {
+        "moves": settings["steps"],
+        "eval_moves": settings["eval_moves"],
+        "cycle": [list(grid.label(s)) for s in cycle.states],
+        "cycle_length": cycle.length,
+        "cycle_joints": _cycle_joints(grid, cycle.states),
+        "cycle_learned_reward_m": cycle.reward,
+        "displacement_m": displacement,
+        "displacement_per_move_m": displacement / max(1, settings["eval_moves"]),
+        "learning_displacement_m": float(result.rewards.sum()),
+        "final_rms": float(rms[-1]),
+        "transitions_measured": len(rewards),
+    }
+
+
+def _crawler_env(settings: dict):
+    """The crawler environment, its grid model, and the observation → state map."""
     from cpg_suite import crawler
 
-    seed = settings["seed"]
     env = cpg_suite.load(
         "crawler_walk",
         task_kwargs={
-            "random": seed,
+            "random": settings["seed"],
             "time_limit": float("inf"),
             "stochastic": settings["stochastic"],
         },
     )
-    grid = models.grid_model({}, name="crawler_grid")
 
     def to_state(obs):
         row, col = (int(v) for v in obs["grid_cell"])
         return crawler.cell_index(row, col)
 
+    return env, models.grid_model({}, name="crawler_grid"), to_state
+
+
+def _learn_online(env, grid, to_state, settings: dict):
+    """Learns for `steps` moves; returns the learner, ε schedule, trajectory and values."""
     learner = make_learner(
         settings,
         grid.n_states,
         grid.n_actions,
-        np.random.RandomState(seed),
+        np.random.RandomState(settings["seed"]),
         allowed=grid.allowed,
         successor=grid.intended_successor,
         tie_order=grid.tie_order,
@@ -334,15 +365,11 @@ def run_crawler(run_dir: str, settings: dict) -> dict:
         on_step=lambda: history.append(learner.state_values()),
     )
     values = np.array([learner.state_values()] + history)[: settings["steps"] + 1]
+    return learner, schedule, result, values
 
-    # Freeze and evaluate the greedy policy from where learning ended.
-    policy = np.array([learner.greedy(s) for s in range(grid.n_states)])
-    displacement = _run_policy(env, learner, to_state, settings["eval_moves"])
 
-    rewards = learned_reward_table(result.states, result.actions, result.rewards, grid)
-    learned = models.grid_model(rewards, name="crawler_learned")
-    reference = planning.value_iteration(learned, settings["gamma"], tol=1e-10).values
-    rms = np.sqrt(np.mean((values - reference) ** 2, axis=1))
+def _write_crawler_files(run_dir, result, schedule, rms, rewards, values, learner) -> None:
+    """progress.csv (a row per move), the learned reward table, the value history."""
     keyed = {f"{a[0]},{a[1]}->{b[0]},{b[1]}": v for (a, b), v in rewards.items()}
     runs.write_rows_csv(
         os.path.join(run_dir, "progress.csv"),
@@ -366,20 +393,6 @@ def run_crawler(run_dir: str, settings: dict) -> dict:
     runs.save_npy(os.path.join(run_dir, "values_history.npy"), values)
     grid_values = learner.state_values().reshape(GRID, GRID)
     runs.write_matrix_csv(os.path.join(run_dir, "values.csv"), grid_values)
-    cycle = planning.policy_cycle(learned, policy)  # its reward: the learned move rewards
-    return {
-        "moves": settings["steps"],
-        "eval_moves": settings["eval_moves"],
-        "cycle": [list(grid.label(s)) for s in cycle.states],
-        "cycle_length": cycle.length,
-        "cycle_joints": _cycle_joints(grid, cycle.states),
-        "cycle_learned_reward_m": cycle.reward,
-        "displacement_m": displacement,
-        "displacement_per_move_m": displacement / max(1, settings["eval_moves"]),
-        "learning_displacement_m": float(result.rewards.sum()),
-        "final_rms": float(rms[-1]),
-        "transitions_measured": len(rewards),
-    }
 
 
 class _ExploreFirst:
