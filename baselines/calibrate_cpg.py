@@ -20,6 +20,8 @@ import dataclasses
 import itertools
 import multiprocessing
 import os
+import sys
+from collections.abc import Callable
 
 import pandas as pd
 from absl import flags
@@ -31,16 +33,15 @@ from cpg_suite import cpg
 
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
-    global _OUTPUT, _PERIODS, _BETAS, _CROUCHES, _GAINS, _PARAMS, _SEEDS, _PROCESSES, _RESUME
-    _OUTPUT = flags.DEFINE_string("output", "runs/calibration.csv", "CSV of trials (appended).")
-    _PERIODS = flags.DEFINE_string("periods", "0.8,1.1,1.4", "Stride periods, s.")
-    _BETAS = flags.DEFINE_string("betas", "4,8,16", "Relaxation rates β, 1/s.")
-    _CROUCHES = flags.DEFINE_string("crouches", "15,23,30", "Standing knee flexion, degrees.")
-    _GAINS = flags.DEFINE_string("gains", "20,40,80", "Servo gains kp, N·m/rad.")
-    _PARAMS = flags.DEFINE_string("params", "hand_tuned,table6_1,table6_2", "Amplitude presets.")
-    _SEEDS = flags.DEFINE_integer("seeds", 3, "Initial-state seeds per setting (0..N-1).")
-    _PROCESSES = flags.DEFINE_integer("processes", 2, "Worker processes.")
-    _RESUME = flags.DEFINE_bool("resume", False, "Skip trials already in --output.")
+    flags.DEFINE_string("output", "runs/calibration.csv", "CSV of trials (appended).")
+    flags.DEFINE_string("periods", "0.8,1.1,1.4", "Stride periods, s.")
+    flags.DEFINE_string("betas", "4,8,16", "Relaxation rates β, 1/s.")
+    flags.DEFINE_string("crouches", "15,23,30", "Standing knee flexion, degrees.")
+    flags.DEFINE_string("gains", "20,40,80", "Servo gains kp, N·m/rad.")
+    flags.DEFINE_string("params", "hand_tuned,table6_1,table6_2", "Amplitude presets.")
+    flags.DEFINE_integer("seeds", 3, "Initial-state seeds per setting (0..N-1).")
+    flags.DEFINE_integer("processes", 2, "Worker processes.")
+    flags.DEFINE_bool("resume", False, "Skip trials already in --output.")
 
 
 FIELDS = [
@@ -71,7 +72,19 @@ def _floats(text: str, name: str) -> list[float]:
 
 @dataclasses.dataclass(frozen=True)
 class CalibrationSettings:
-    """The sweep: comma lists of the constants to try, presets, seeds, output, workers."""
+    """The sweep (the flags of `python -m baselines.calibrate_cpg`); validated.
+
+    Attributes:
+      output: CSV of trials (appended to with `resume`).
+      periods: Stride periods to try, s (comma list).
+      betas: Relaxation rates β to try, 1/s (comma list).
+      crouches: Standing knee flexions to try, degrees (comma list).
+      gains: Servo gains kp to try, N·m/rad (comma list).
+      params: Amplitude presets (comma list).
+      seeds: Initial-state seeds per setting (0..N-1).
+      processes: Worker processes.
+      resume: Skip trials already in `output`.
+    """
 
     output: str = "runs/calibration.csv"
     periods: str = "0.8,1.1,1.4"
@@ -96,9 +109,11 @@ class CalibrationSettings:
         return list(itertools.product(*lists))
 
     def presets(self) -> list[str]:
+        """The amplitude presets, in order."""
         return [p for p in self.params.split(",") if p]
 
     def jobs(self) -> list[tuple]:
+        """(period, β, crouch, gain, preset, seed) of every trial."""
         return [(*g, p, s) for g in self.grid() for p in self.presets() for s in range(self.seeds)]
 
 
@@ -132,18 +147,44 @@ def summarize(trials: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def main(argv):
-    del argv
-    settings = cli.settings_from_flags(CalibrationSettings)
-    output = settings.output
-    jobs = settings.jobs()
-    done = set()
+def _trials_to_run(settings: CalibrationSettings) -> list[tuple]:
+    """The sweep's trials not yet in the output file.
+
+    Raises:
+      FileExistsError: If the output exists and `resume` is off.
+    """
+    output, done = settings.output, set()
     if settings.resume and os.path.exists(output):
         old = pd.read_csv(output)
         done = {tuple(r) for r in old[FIELDS[:6]].itertuples(index=False)}
     elif os.path.exists(output):
-        raise cli.UsageError(f"{output} exists; pass --resume to extend it")
-    todo = [j for j in jobs if j not in done]
+        raise FileExistsError(f"{output} exists; pass --resume to extend it")
+    return [j for j in settings.jobs() if j not in done]
+
+
+def _write_flushed(line: str) -> None:
+    progress.write(line)
+    sys.stdout.flush()  # the sweep's log is followed while it runs
+
+
+def run_calibration(
+    settings: CalibrationSettings, log: Callable[[str], None] = _write_flushed
+) -> pd.DataFrame:
+    """Runs the sweep's missing trials, appending a CSV row per trial; summarises the file.
+
+    Args:
+      settings: The sweep.
+      log: Receives a line every 20 trials and at the end.
+
+    Returns:
+      One row per setting (`summarize`), the hand-tuned gait's fewest falls and smallest
+      displacement first.
+
+    Raises:
+      FileExistsError: If the output exists and `resume` is off.
+    """
+    output = settings.output
+    todo = _trials_to_run(settings)
     os.makedirs(os.path.dirname(os.path.abspath(output)), exist_ok=True)
     new_file = not os.path.exists(output)
     with open(output, "a", newline="", encoding="utf-8") as f:
@@ -156,11 +197,21 @@ def main(argv):
                 writer.writerow(row)
                 f.flush()
                 if i % 20 == 0 or i == len(todo):
-                    print(f"{i}/{len(todo)} trials", flush=True)
+                    log(f"{i}/{len(todo)} trials")
     table = summarize(pd.read_csv(output))
     if "hand_tuned_falls" in table:
         table["abs_hand_tuned_m"] = table["hand_tuned_distance_m"].abs()
         table = table.sort_values(["hand_tuned_falls", "abs_hand_tuned_m"])
+    return table
+
+
+def main(argv):
+    del argv
+    settings = cli.settings_from_flags(CalibrationSettings)
+    try:
+        table = run_calibration(settings)
+    except FileExistsError as e:
+        raise cli.UsageError(str(e)) from None
     with pd.option_context("display.width", 200, "display.max_rows", 500):
         print(table.to_string(index=False, float_format=lambda v: f"{v:.4f}"))
 

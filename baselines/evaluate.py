@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Iterator
 
+import numpy as np
 from absl import flags
 
 from baselines import cli
@@ -24,22 +26,28 @@ from cpg_suite import cpg
 
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
-    global _TASK, _PARAMS, _SEEDS, _STEPS, _FAST, _THREADS
-    _TASK = flags.DEFINE_string("task", "darwin_walk", f"One of {', '.join(DARWIN_TASKS)}.")
-    _PARAMS = flags.DEFINE_string(
+    flags.DEFINE_string("task", "darwin_walk", f"One of {', '.join(DARWIN_TASKS)}.")
+    flags.DEFINE_string(
         "params", "hand_tuned", f"Preset ({', '.join(cpg.PRESETS)}) or a JSON file of amplitudes."
     )
-    _SEEDS = flags.DEFINE_string("seeds", "0-9", "Initial-state seeds: N, A-B or a comma list.")
-    _STEPS = flags.DEFINE_integer("steps", 1000, "Control steps per trial (the study: 1000).")
-    _FAST = flags.DEFINE_bool(
-        "fast", False, "Use the batched mujoco.rollout evaluator (same results)."
-    )
-    _THREADS = flags.DEFINE_integer("threads", 2, "Threads of the --fast evaluator.")
+    flags.DEFINE_string("seeds", "0-9", "Initial-state seeds: N, A-B or a comma list.")
+    flags.DEFINE_integer("steps", 1000, "Control steps per trial (the study: 1000).")
+    flags.DEFINE_bool("fast", False, "Use the batched mujoco.rollout evaluator (same results).")
+    flags.DEFINE_integer("threads", 2, "Threads of the --fast evaluator.")
 
 
 @dataclasses.dataclass(frozen=True)
 class EvaluateSettings:
-    """Which gait to evaluate, where and how (the flags of `python -m baselines.evaluate`)."""
+    """Which gait to evaluate, where and how (the flags of `python -m baselines.evaluate`).
+
+    Attributes:
+      task: One of `baselines.gait.DARWIN_TASKS`.
+      params: A preset (`cpg.PRESETS`) or a JSON file of the 11 amplitudes.
+      seeds: Initial-state seeds: `N`, `A-B` or a comma list.
+      steps: Control steps per trial.
+      fast: Use the batched `mujoco.rollout` evaluator (same results).
+      threads: Threads of the fast evaluator.
+    """
 
     task: str = "darwin_walk"
     params: str = "hand_tuned"
@@ -53,8 +61,49 @@ class EvaluateSettings:
             self.task in DARWIN_TASKS,
             f"unknown --task {self.task!r}; valid: {', '.join(DARWIN_TASKS)}",
         )
+        self.seed_list()  # validates the seeds
         cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
         cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
+
+    def seed_list(self) -> list[int]:
+        """The seeds, parsed.
+
+        Raises:
+          ValueError: If `seeds` is malformed.
+        """
+        try:
+            return cli.parse_seeds(self.seeds)
+        except cli.UsageError as e:
+            raise ValueError(str(e)) from None
+
+
+def trials(settings: EvaluateSettings, amplitudes: np.ndarray) -> Iterator[dict]:
+    """Evaluates the gait from each seed, yielding one result per seed as it is known.
+
+    Args:
+      settings: Task, seeds, steps, and which evaluator.
+      amplitudes: The 11 amplitudes, degrees.
+
+    Returns:
+      An iterator of `seed`, `distance_m`, `lateral_m`, `fell`, `fall_step` (and, from
+      the reference evaluator, `return`) per seed.
+    """
+    seeds = settings.seed_list()
+    if not settings.fast:
+        for seed in seeds:
+            yield evaluate_gait(amplitudes, seed, settings.task, settings.steps)
+        return
+    with BatchEvaluator(settings.task, settings.steps, settings.threads) as evaluator:
+        batch = evaluator.evaluate(amplitudes, seeds)
+    for j, seed in enumerate(seeds):
+        step = int(batch.fall_step[0, j])
+        yield {
+            "seed": seed,
+            "distance_m": float(batch.distance_m[0, j]),
+            "lateral_m": float(batch.lateral_m[0, j]),
+            "fell": step > 0,
+            "fall_step": step or None,
+        }
 
 
 def main(argv):
@@ -64,28 +113,10 @@ def main(argv):
         amplitudes = parse_params(settings.params)
     except ValueError as e:
         raise cli.UsageError(str(e)) from None
-    seeds = cli.parse_seeds(settings.seeds)
     results = []
-    if settings.fast:
-        with BatchEvaluator(settings.task, settings.steps, settings.threads) as evaluator:
-            batch = evaluator.evaluate(amplitudes, seeds)
-        for j, seed in enumerate(seeds):
-            step = int(batch.fall_step[0, j])
-            results.append(
-                {
-                    "seed": seed,
-                    "distance_m": float(batch.distance_m[0, j]),
-                    "lateral_m": float(batch.lateral_m[0, j]),
-                    "fell": step > 0,
-                    "fall_step": step or None,
-                }
-            )
-            print(json.dumps(results[-1]))
-    else:
-        for seed in seeds:
-            result = evaluate_gait(amplitudes, seed, settings.task, settings.steps)
-            results.append(result)
-            print(json.dumps(result), flush=True)
+    for result in trials(settings, amplitudes):
+        results.append(result)
+        print(json.dumps(result), flush=True)
     print(json.dumps({**summarize(results), "task": settings.task, "params": settings.params}))
 
 

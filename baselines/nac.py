@@ -47,12 +47,13 @@ import dataclasses
 import math
 import os
 import time
+from collections.abc import Callable
 
 import numpy as np
 from absl import flags
 
 import cpg_suite
-from baselines import cli, runs
+from baselines import cli, progress, runs
 from cpg_suite import cpg
 
 TASKS = ("darwin_balance", "darwin_walk")
@@ -61,51 +62,29 @@ N_FEATURES = 15  # 1, 12 joint positions, 2 phases (thesis Sec. 5.4)
 
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
-    global \
-        _TASK, \
-        _STEPS, \
-        _ALPHA, \
-        _BETA, \
-        _GAMMA, \
-        _LAMBDA, \
-        _SIGMA, \
-        _RIDGE, \
-        _NORMALIZE, \
-        _CONSTANT_RULE, \
-        _EPS_A, \
-        _ACCURACY, \
-        _CHECK_EVERY, \
-        _FALL_PENALTY, \
-        _EVAL_SEEDS, \
-        _SEED, \
-        _OUTPUT_DIR, \
-        _RUN_NAME, \
-        _OVERWRITE
-    _TASK = flags.DEFINE_string("task", "darwin_balance", f"One of {', '.join(TASKS)}.")
-    _STEPS = flags.DEFINE_integer("steps", 20000, "Learning steps (16 ms each).")
-    _ALPHA = flags.DEFINE_float(
+    flags.DEFINE_string("task", "darwin_balance", f"One of {', '.join(TASKS)}.")
+    flags.DEFINE_integer("steps", 20000, "Learning steps (16 ms each).")
+    flags.DEFINE_float(
         "alpha", 100.0, "Actor learning rate α (rewards are metres per step: small; see docstring)."
     )
-    _BETA = flags.DEFINE_float("beta", 0.9, "Forgetting factor β in [0, 1].")
-    _GAMMA = flags.DEFINE_float("gamma", 0.95, "Discount γ in [0, 1).")
-    _LAMBDA = flags.DEFINE_float("lam", 0.8, "LSTD trace decay λ in [0, 1].")
-    _SIGMA = flags.DEFINE_float("sigma", 5.0, "Exploration σ of u, degrees/s.")
-    _RIDGE = flags.DEFINE_float(
-        "ridge", 1e-2, "Ridge δ added to A's diagonal before solving (0: off)."
-    )
-    _NORMALIZE = flags.DEFINE_bool("normalize", True, "Divide the basis by its running std.")
-    _CONSTANT_RULE = flags.DEFINE_enum(
+    flags.DEFINE_float("beta", 0.9, "Forgetting factor β in [0, 1].")
+    flags.DEFINE_float("gamma", 0.95, "Discount γ in [0, 1).")
+    flags.DEFINE_float("lam", 0.8, "LSTD trace decay λ in [0, 1].")
+    flags.DEFINE_float("sigma", 5.0, "Exploration σ of u, degrees/s.")
+    flags.DEFINE_float("ridge", 1e-2, "Ridge δ added to A's diagonal before solving (0: off).")
+    flags.DEFINE_bool("normalize", True, "Divide the basis by its running std.")
+    flags.DEFINE_enum(
         "constant_rule", "one", ["one", "samples"], "Normalisation of the constant feature."
     )
-    _EPS_A = flags.DEFINE_float("eps_a", 1e-6, "A starts as eps_a · I.")
-    _ACCURACY = flags.DEFINE_float("accuracy_angle", 10.0, "Accuracy test: angle of w, degrees.")
-    _CHECK_EVERY = flags.DEFINE_integer("check_every", 50, "Steps between accuracy checks.")
-    _FALL_PENALTY = flags.DEFINE_float("fall_penalty", 1.0, "Reward subtracted at a fall.")
-    _EVAL_SEEDS = flags.DEFINE_integer("eval_seeds", 5, "Evaluation initial states (100..100+N-1).")
-    _SEED = flags.DEFINE_integer("seed", 0, "Seed of exploration and training initial states.")
-    _OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs", "Root of the output tree.")
-    _RUN_NAME = flags.DEFINE_string("run_name", None, "Run directory name (default from settings).")
-    _OVERWRITE = flags.DEFINE_bool("overwrite", False, "Replace an existing run directory.")
+    flags.DEFINE_float("eps_a", 1e-6, "A starts as eps_a · I.")
+    flags.DEFINE_float("accuracy_angle", 10.0, "Accuracy test: angle of w, degrees.")
+    flags.DEFINE_integer("check_every", 50, "Steps between accuracy checks.")
+    flags.DEFINE_float("fall_penalty", 1.0, "Reward subtracted at a fall.")
+    flags.DEFINE_integer("eval_seeds", 5, "Evaluation initial states (100..100+N-1).")
+    flags.DEFINE_integer("seed", 0, "Seed of exploration and training initial states.")
+    flags.DEFINE_string("output_dir", "runs", "Root of the output tree.")
+    flags.DEFINE_string("run_name", None, "Run directory name (default from settings).")
+    flags.DEFINE_bool("overwrite", False, "Replace an existing run directory.")
 
 
 THETA_LIMIT = 1e6  # |θ| above this (or a NaN) counts as divergence; the run stops.
@@ -275,6 +254,86 @@ def evaluate_policy(
     return {"reward_per_step": float(np.mean(rewards)), "per_seed": rewards, "falls": falls}
 
 
+@dataclasses.dataclass(frozen=True)
+class NACSettings:
+    """Every setting of a NAC run (the flags of `python -m baselines.nac`); validated.
+
+    Attributes:
+      task: `darwin_balance` (COP reward) or `darwin_walk` (forward distance).
+      steps: Learning steps (16 ms control steps).
+      alpha: Actor learning rate α.
+      beta: Forgetting factor β in [0, 1].
+      gamma: Discount γ in [0, 1).
+      lam: LSTD trace decay λ in [0, 1].
+      sigma: Exploration σ of u, degrees/s.
+      ridge: Ridge δ added to A's diagonal before solving (0: off).
+      normalize: Divide the basis by its running standard deviation.
+      constant_rule: Normalisation of the constant feature, `one` or `samples`.
+      eps_a: A starts as eps_a · I.
+      accuracy_angle: Accuracy test: largest angle between successive w, degrees.
+      check_every: Steps between accuracy checks.
+      fall_penalty: Reward subtracted at a fall.
+      eval_seeds: Evaluation initial states (100..100+N-1).
+      seed: Seed of exploration and of the training initial states.
+      output_dir: Root of the output tree.
+      run_name: Run directory name (None: `default_run_name`).
+      overwrite: Replace an existing run directory.
+    """
+
+    task: str = "darwin_balance"
+    steps: int = 20000
+    alpha: float = 100.0
+    beta: float = 0.9
+    gamma: float = 0.95
+    lam: float = 0.8
+    sigma: float = 5.0
+    ridge: float = 0.01
+    normalize: bool = True
+    constant_rule: str = "one"
+    eps_a: float = 1e-6
+    accuracy_angle: float = 10.0
+    check_every: int = 50
+    fall_penalty: float = 1.0
+    eval_seeds: int = 5
+    seed: int = 0
+    output_dir: str = "runs"
+    run_name: str | None = None
+    overwrite: bool = False
+
+    def __post_init__(self):
+        require = cli.require
+        require(self.task in TASKS, f"unknown --task {self.task!r}; valid: {', '.join(TASKS)}")
+        require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
+        require(self.alpha >= 0, f"--alpha must be ≥ 0, got {self.alpha}")
+        for name in ("beta", "lam"):
+            value = getattr(self, name)
+            require(0.0 <= value <= 1.0, f"--{name} must lie in [0, 1], got {value}")
+        require(0.0 <= self.gamma < 1.0, f"--gamma must lie in [0, 1), got {self.gamma}")
+        require(self.sigma > 0, f"--sigma must be > 0, got {self.sigma}")
+        require(self.ridge >= 0, f"--ridge must be ≥ 0, got {self.ridge}")
+        require(self.eps_a > 0, f"--eps_a must be > 0, got {self.eps_a}")
+        require(
+            0 < self.accuracy_angle <= 180,
+            f"--accuracy_angle must lie in (0, 180], got {self.accuracy_angle}",
+        )
+        require(self.check_every >= 1, f"--check_every must be ≥ 1, got {self.check_every}")
+        require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
+        require(self.fall_penalty >= 0, f"--fall_penalty must be ≥ 0, got {self.fall_penalty}")
+
+    def evaluation_seeds(self) -> range:
+        """The evaluation initial states: 100, 101, ..., 100 + eval_seeds − 1."""
+        return range(100, 100 + self.eval_seeds)
+
+
+def as_settings(settings: NACSettings | dict) -> NACSettings:
+    """The settings themselves, or built from a dict (missing keys take their defaults).
+
+    Raises:
+      ValueError: On invalid settings.
+    """
+    return settings if isinstance(settings, NACSettings) else NACSettings(**settings)
+
+
 @dataclasses.dataclass
 class _Tally:
     """What a training run keeps count of, and the progress window between report rows."""
@@ -317,43 +376,77 @@ class _Tally:
         return line
 
 
-def _learner(settings: dict) -> NaturalActorCritic:
-    keys = ("alpha", "beta", "gamma", "lam", "ridge", "eps_a", "accuracy_angle", "check_every")
-    return NaturalActorCritic(N_FEATURES, cpg.N_KERNELS, *(settings[k] for k in keys))
+def _learner(settings: NACSettings) -> NaturalActorCritic:
+    s = settings
+    return NaturalActorCritic(
+        N_FEATURES,
+        cpg.N_KERNELS,
+        s.alpha,
+        s.beta,
+        s.gamma,
+        s.lam,
+        s.ridge,
+        s.eps_a,
+        s.accuracy_angle,
+        s.check_every,
+    )
 
 
-def _episode(settings: dict, episode: int):
+def _episode(settings: NACSettings, episode: int):
     """A fresh environment and CPG for an episode (the seed's own state first, then new ones)."""
-    seed = settings["seed"] if episode == 0 else settings["seed"] * 100_003 + episode
-    env = cpg_suite.load(settings["task"], task_kwargs={"random": seed})
+    seed = settings.seed if episode == 0 else settings.seed * 100_003 + episode
+    env = cpg_suite.load(settings.task, task_kwargs={"random": seed})
     pattern = cpg.CPG("hand_tuned")
     env.reset()
     return env, pattern
 
 
-def train(settings: dict, log=print) -> dict:
-    """Runs Algorithm 5.1 for `steps` control steps; returns the learning record."""
-    rng = np.random.default_rng(settings["seed"])
+def _act(env, pattern: cpg.CPG, u: np.ndarray, fall_penalty: float) -> tuple[float, bool, bool]:
+    """Alg. 5.1 steps 3-4: applies u for one control step; observes r_t (fall penalised).
+
+    Returns:
+      `(reward, fell, episode_ended)`.
+    """
+    pattern.set_roll_input(u)
+    ts = env.step(env.physics.targets_to_action(pattern.step(env.control_timestep())))
+    fell = bool(ts.last() and ts.discount == 0.0)
+    return float(ts.reward) - (fall_penalty if fell else 0.0), fell, ts.last()
+
+
+def train(settings: NACSettings | dict, log: Callable[[str], None] = progress.write) -> dict:
+    """Runs Algorithm 5.1 for `settings.steps` control steps.
+
+    Args:
+      settings: The run's settings (a dict is validated through `NACSettings`).
+      log: Receives a progress line every 500 steps (and at a divergence).
+
+    Returns:
+      The learning record: `theta`, progress `rows`, `theta_norm_max`, `diverged`,
+      `updates` (actor updates), training `falls` and the `steps` taken.
+
+    Raises:
+      ValueError: On invalid settings.
+    """
+    settings = as_settings(settings)
+    rng = np.random.default_rng(settings.seed)
     nac = _learner(settings)
-    features = Features(settings["normalize"], settings["constant_rule"])
+    features = Features(settings.normalize, settings.constant_rule)
     tally = _Tally()
     env, pattern = _episode(settings, 0)
-    dt = env.control_timestep()
     x = features(pattern)
-    for t in range(settings["steps"]):
-        mean, u, score = dmp_policy(nac.theta, pattern.phases(), settings["sigma"], rng)
+    t = 0
+    bar = progress.track(range(settings.steps), desc=f"NAC {settings.task}", unit="step")
+    for t in bar:
+        mean, u, score = dmp_policy(nac.theta, pattern.phases(), settings.sigma, rng)  # step 3
         tally.f_abs_max = max(tally.f_abs_max, float(np.abs(mean).max()))
-        pattern.set_roll_input(u)
-        ts = env.step(env.physics.targets_to_action(pattern.step(dt)))
-        fell = ts.last() and ts.discount == 0.0
-        reward = float(ts.reward) - (settings["fall_penalty"] if fell else 0.0)
-        tally.falls += int(bool(fell))
+        reward, fell, ended = _act(env, pattern, u, settings.fall_penalty)  # step 4
+        tally.falls += int(fell)
         x_next = features(pattern)
-        nac.step(x, score, reward, x_next, terminal=fell)
+        nac.step(x, score, reward, x_next, terminal=fell)  # steps 7-17
         tally.reward_sum += reward
         tally.reward_n += 1
         norm = tally.track_theta(nac.theta)
-        if ts.last():
+        if ended:
             tally.episode += 1
             nac.clear_trace()
             env, pattern = _episode(settings, tally.episode)
@@ -374,105 +467,43 @@ def train(settings: dict, log=print) -> dict:
     }
 
 
-@dataclasses.dataclass(frozen=True)
-class NACSettings:
-    """Every setting of a NAC run (the flags of `python -m baselines.nac`); validated."""
-
-    task: str = "darwin_balance"
-    steps: int = 20000
-    alpha: float = 100.0
-    beta: float = 0.9
-    gamma: float = 0.95
-    lam: float = 0.8
-    sigma: float = 5.0
-    ridge: float = 0.01
-    normalize: bool = True
-    constant_rule: str = "one"
-    eps_a: float = 1e-6
-    accuracy_angle: float = 10.0
-    check_every: int = 50
-    fall_penalty: float = 1.0
-    eval_seeds: int = 5
-    seed: int = 0
-    output_dir: str = "runs"
-    run_name: str | None = None
-    overwrite: bool = False
-
-    def __post_init__(self):
-        require = cli.require
-        require(self.task in TASKS, f"unknown --task {self.task!r}; valid: {', '.join(TASKS)}")
-        require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
-        require(self.alpha >= 0, f"--alpha must be ≥ 0, got {self.alpha}")
-        for name in ("beta", "lam"):
-            value = getattr(self, name)
-            require(0.0 <= value <= 1.0, f"--{name} must lie in [0, 1], got {value}")
-        require(0.0 <= self.gamma < 1.0, f"--gamma must lie in [0, 1), got {self.gamma}")
-        require(self.sigma > 0, f"--sigma must be > 0, got {self.sigma}")
-        require(self.ridge >= 0, f"--ridge must be ≥ 0, got {self.ridge}")
-        require(self.eps_a > 0, f"--eps_a must be > 0, got {self.eps_a}")
-        require(
-            0 < self.accuracy_angle <= 180,
-            f"--accuracy_angle must lie in (0, 180], got {self.accuracy_angle}",
-        )
-        require(self.check_every >= 1, f"--check_every must be ≥ 1, got {self.check_every}")
-        require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
-        require(self.fall_penalty >= 0, f"--fall_penalty must be ≥ 0, got {self.fall_penalty}")
-
-
-def default_run_name(settings: dict) -> str:
-    fixes = ("norm" if settings["normalize"] else "nonorm") + (
-        f"_ridge{settings['ridge']:g}" if settings["ridge"] else "_noridge"
+def default_run_name(settings: NACSettings | dict) -> str:
+    """`norm|nonorm` + `_ridge<δ>|_noridge` + `_seed<N>`, e.g. `norm_ridge0.01_seed0`."""
+    settings = as_settings(settings)
+    fixes = ("norm" if settings.normalize else "nonorm") + (
+        f"_ridge{settings.ridge:g}" if settings.ridge else "_noridge"
     )
-    return f"{fixes}_seed{settings['seed']}"
+    return f"{fixes}_seed{settings.seed}"
 
 
-def run_nac(settings: NACSettings | dict, log=print) -> tuple[str, dict]:
-    """Trains, evaluates before and after, and writes the run directory.
-
-    Args:
-      settings: The settings, or a dict of them (missing keys take their defaults).
-      log: Receives progress lines.
-
-    Returns:
-      `(run_dir, summary)`.
-
-    Raises:
-      ValueError: On invalid settings.
-      runs.RunDirectoryExists: If the run directory exists and `overwrite` is off.
-    """
-    if isinstance(settings, dict):
-        settings = NACSettings(**settings)
-    settings = dataclasses.asdict(settings)
-    run_name = settings.get("run_name") or default_run_name(settings)
+def _start_run(settings: NACSettings) -> str:
+    """Creates the run directory and writes config.json with the command that re-runs it."""
+    run_name = settings.run_name or default_run_name(settings)
     run_dir = runs.run_directory(
-        settings["output_dir"],
-        "nac",
-        settings["task"],
-        run_name,
-        overwrite=settings.get("overwrite", False),
+        settings.output_dir, "nac", settings.task, run_name, overwrite=settings.overwrite
     )
-    flags_of_run = {k: v for k, v in settings.items() if k != "overwrite"}
+    flags_of_run = {k: v for k, v in dataclasses.asdict(settings).items() if k != "overwrite"}
     command = runs.command_line("baselines.nac", {**flags_of_run, "run_name": run_name})
     runs.write_config(run_dir, settings, command)
-    start = time.perf_counter()
-    record = train(settings, log)
-    seeds = range(100, 100 + settings["eval_seeds"])
-    before = evaluate_policy(
-        settings["task"], np.zeros(cpg.N_KERNELS), seeds, fall_penalty=settings["fall_penalty"]
-    )
+    return run_dir
+
+
+def _evaluate_before_after(settings: NACSettings, record: dict) -> tuple[dict, dict]:
+    """The deterministic policy's reward before (θ = 0) and after learning (unless diverged)."""
+    seeds, penalty = settings.evaluation_seeds(), settings.fall_penalty
+    before = evaluate_policy(settings.task, np.zeros(cpg.N_KERNELS), seeds, fall_penalty=penalty)
+    if record["diverged"]:
+        return before, {"reward_per_step": None, "per_seed": [], "falls": None}
+    return before, evaluate_policy(settings.task, record["theta"], seeds, fall_penalty=penalty)
+
+
+def _summary(settings: NACSettings, record: dict, before: dict, after: dict) -> dict:
     theta = record["theta"]
-    after = (
-        evaluate_policy(settings["task"], theta, seeds, fall_penalty=settings["fall_penalty"])
-        if not record["diverged"]
-        else {"reward_per_step": None, "per_seed": [], "falls": None}
-    )
-    runs.write_rows_csv(os.path.join(run_dir, "progress.csv"), record["rows"])
-    runs.write_json(os.path.join(run_dir, "theta.json"), {"theta": theta.tolist()})
-    summary = {
-        "task": settings["task"],
-        "seed": settings["seed"],
-        "normalize": settings["normalize"],
-        "ridge": settings["ridge"],
+    return {
+        "task": settings.task,
+        "seed": settings.seed,
+        "normalize": settings.normalize,
+        "ridge": settings.ridge,
         "reward_before": before["reward_per_step"],
         "reward_after": after["reward_per_step"],
         "reward_before_per_seed": before["per_seed"],
@@ -485,6 +516,37 @@ def run_nac(settings: NACSettings | dict, log=print) -> tuple[str, dict]:
         "actor_updates": record["updates"],
         "training_falls": record["falls"],
         "steps": record["steps"],
+    }
+
+
+def run_nac(
+    settings: NACSettings | dict, log: Callable[[str], None] = progress.write
+) -> tuple[str, dict]:
+    """Trains, evaluates before and after, and writes the run directory.
+
+    Files: `config.json` (the settings and the command that re-runs the run),
+    `progress.csv`, `theta.json` and `summary.json`.
+
+    Args:
+      settings: The settings, or a dict of them (missing keys take their defaults).
+      log: Receives progress lines.
+
+    Returns:
+      `(run_dir, summary)`.
+
+    Raises:
+      ValueError: On invalid settings.
+      runs.RunDirectoryExists: If the run directory exists and `overwrite` is off.
+    """
+    settings = as_settings(settings)
+    run_dir = _start_run(settings)
+    start = time.perf_counter()
+    record = train(settings, log)
+    before, after = _evaluate_before_after(settings, record)
+    runs.write_rows_csv(os.path.join(run_dir, "progress.csv"), record["rows"])
+    runs.write_json(os.path.join(run_dir, "theta.json"), {"theta": record["theta"].tolist()})
+    summary = {
+        **_summary(settings, record, before, after),
         "wall_s": time.perf_counter() - start,
     }
     runs.write_json(os.path.join(run_dir, "summary.json"), summary)

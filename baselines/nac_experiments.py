@@ -25,11 +25,12 @@ from baselines import cli, nac, progress, runs
 from baselines.stats import mean_std_ci95
 
 
-# --output_dir and --steps are `baselines.nac`'s flags (imported above), shared here.
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
-    nac.define_flags()  # --output_dir, --steps, --eval_seeds and NAC's other flags.
+    flags.DEFINE_string("output_dir", "runs", "Root of the output tree.")
     flags.DEFINE_integer("seeds", 5, "Seeds per configuration.")
+    flags.DEFINE_integer("steps", 20000, "Learning steps (16 ms each).")
+    flags.DEFINE_integer("eval_seeds", 5, "Evaluation initial states (100..100+N-1).")
     flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
 
 
@@ -53,43 +54,70 @@ BASE = {
 }
 
 
+@dataclasses.dataclass(frozen=True)
+class NACExperimentSettings:
+    """The NAC experiments (the flags of `python -m baselines.nac_experiments`); validated.
+
+    Attributes:
+      output_dir: Root of the output tree (runs under `nac/`, the table beside it).
+      seeds: Seeds per configuration (0..N-1; ≥ 2 for an interval).
+      steps: Learning steps per run.
+      eval_seeds: Evaluation initial states per run (100..100+N-1).
+      resume: Reuse runs that already have a summary.json.
+    """
+
+    output_dir: str = "runs"
+    seeds: int = 5
+    steps: int = 20000
+    eval_seeds: int = 5
+    resume: bool = False
+
+    def __post_init__(self):
+        cli.require(self.seeds >= 2, f"--seeds must be ≥ 2, got {self.seeds}")
+        cli.require(self.steps >= 100, f"--steps must be ≥ 100, got {self.steps}")
+        cli.require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
+
+
 def ci95(values) -> tuple[float, float, float]:
     """Mean and the 95 % t-interval of the mean."""
     mean, _, low, high = mean_std_ci95(values)
     return mean, low, high
 
 
-def run_configuration(
-    name: str, seeds: int, steps: int, eval_seeds: int, output_dir: str, resume: bool
-) -> list[dict]:
-    """Runs (or, with `resume`, reuses) one configuration's NAC runs; returns summaries.
+def run_settings(name: str, seed: int, settings: NACExperimentSettings) -> nac.NACSettings:
+    """The settings of one NAC run: configuration `name`, seed `seed`.
 
     Raises:
-      runs.RunDirectoryExists: If a run exists and `resume` is off.
+      KeyError: If `name` is not one of `CONFIGS`.
     """
-    config, summaries = CONFIGS[name], []
-    for seed in progress.track(range(seeds), desc=name, unit="run"):
-        settings = {
-            **BASE,
-            **config,
-            "steps": steps,
-            "eval_seeds": eval_seeds,
-            "seed": seed,
-            "output_dir": output_dir,
-            "run_name": f"{name}_seed{seed}",
-        }
-        path = os.path.join(output_dir, "nac", config["task"], settings["run_name"])
-        if resume and os.path.exists(os.path.join(path, "summary.json")):
-            summaries.append(runs.read_json(os.path.join(path, "summary.json")))
-            continue
-        _, summary = nac.run_nac(settings, log=lambda line: None)
-        summaries.append(summary)
-        progress.write(
-            f"{name} seed {seed}: before {summary['reward_before']:+.5f} after "
-            f"{summary['reward_after']} max|θ| {summary['theta_norm_max']:.3g} "
-            f"diverged {summary['diverged']}"
-        )
-    return summaries
+    return nac.NACSettings(
+        **BASE,
+        **CONFIGS[name],
+        steps=settings.steps,
+        eval_seeds=settings.eval_seeds,
+        seed=seed,
+        output_dir=settings.output_dir,
+        run_name=f"{name}_seed{seed}",
+    )
+
+
+def run_one(name: str, seed: int, settings: NACExperimentSettings) -> dict:
+    """Runs (or, with `settings.resume`, reuses) one NAC run; returns its summary.
+
+    Raises:
+      runs.RunDirectoryExists: If the run exists and `resume` is off.
+    """
+    run = run_settings(name, seed, settings)
+    path = os.path.join(run.output_dir, "nac", run.task, run.run_name, "summary.json")
+    if settings.resume and os.path.exists(path):
+        return runs.read_json(path)
+    _, summary = nac.run_nac(run, log=lambda line: None)
+    progress.write(
+        f"{name} seed {seed}: before {summary['reward_before']:+.5f} after "
+        f"{summary['reward_after']} max|θ| {summary['theta_norm_max']:.3g} "
+        f"diverged {summary['diverged']}"
+    )
+    return summary
 
 
 def table_row(name: str, summaries: list[dict]) -> str:
@@ -109,34 +137,12 @@ def table_row(name: str, summaries: list[dict]) -> str:
     )
 
 
-@dataclasses.dataclass(frozen=True)
-class NACExperimentSettings:
-    """The NAC experiments: seeds per configuration, learning steps, evaluation states."""
-
-    output_dir: str = "runs"
-    seeds: int = 5
-    steps: int = 20000
-    eval_seeds: int = 5
-    resume: bool = False
-
-    def __post_init__(self):
-        cli.require(self.seeds >= 2, f"--seeds must be ≥ 2, got {self.seeds}")
-        cli.require(self.steps >= 100, f"--steps must be ≥ 100, got {self.steps}")
-        cli.require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
-
-
-def run_experiments(settings: NACExperimentSettings) -> list[str]:
-    """Runs (or reuses) every configuration's runs; writes and returns the markdown table.
-
-    Raises:
-      runs.RunDirectoryExists: If a run exists and `resume` is off.
-    """
-    s = settings
-    lines = [
+def _header(settings: NACExperimentSettings) -> list[str]:
+    return [
         "# NAC on the DMP term: the study's finding and the reward hypothesis",
         "",
-        f"{s.steps} learning steps per run; rewards are per control step, evaluated "
-        f"with u = F over {s.eval_seeds} initial states (seeds 100 on); "
+        f"{settings.steps} learning steps per run; rewards are per control step, evaluated "
+        f"with u = F over {settings.eval_seeds} initial states (seeds 100 on); "
         "Δ = after − before, paired "
         "by run, 95 % t-interval over seeds.",
         "",
@@ -144,12 +150,30 @@ def run_experiments(settings: NACExperimentSettings) -> list[str]:
         "max |θ| (median) | diverged | actor updates (mean) |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    for name in CONFIGS:
-        summaries = run_configuration(name, s.seeds, s.steps, s.eval_seeds, s.output_dir, s.resume)
-        lines.append(table_row(name, summaries))
-    lines.append("")
-    os.makedirs(s.output_dir, exist_ok=True)
-    runs.write_text(os.path.join(s.output_dir, "nac_experiments.md"), "\n".join(lines) + "\n")
+
+
+def run_experiments(settings: NACExperimentSettings) -> list[str]:
+    """Runs (or reuses) every configuration's runs; writes and returns the markdown table.
+
+    Writes `<output_dir>/nac_experiments.md`; the runs go to `<output_dir>/nac/<task>/`.
+
+    Args:
+      settings: Seeds per configuration, learning steps, evaluation states, resume.
+
+    Returns:
+      The lines of the markdown table.
+
+    Raises:
+      runs.RunDirectoryExists: If a run exists and `resume` is off.
+    """
+    jobs = [(name, seed) for name in CONFIGS for seed in range(settings.seeds)]
+    summaries: dict[str, list[dict]] = {name: [] for name in CONFIGS}
+    for name, seed in progress.track(jobs, desc="NAC runs", unit="run"):
+        summaries[name].append(run_one(name, seed, settings))
+    lines = _header(settings) + [table_row(name, summaries[name]) for name in CONFIGS] + [""]
+    os.makedirs(settings.output_dir, exist_ok=True)
+    path = os.path.join(settings.output_dir, "nac_experiments.md")
+    runs.write_text(path, "\n".join(lines) + "\n")
     return lines
 
 

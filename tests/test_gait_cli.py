@@ -1,6 +1,7 @@
 """`baselines.evaluate` and `cpg_suite.explore` from the command line."""
 
 import json
+import os
 import subprocess
 import sys
 
@@ -106,3 +107,22 @@ def test_explore_bad_input(tmp_path, args, words):
     out = run("cpg_suite.explore", f"--out={tmp_path}", *args)
     assert out.returncode == 2
     assert len(out.stderr.strip().splitlines()) == 1 and words in out.stderr
+
+
+def test_explore_renders_headless_without_mujoco_gl(tmp_path):
+    """Without a display and without MUJOCO_GL the command chooses EGL for itself."""
+    pytest.importorskip("PIL")
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY")}
+    out = run(
+        "cpg_suite.explore",
+        "--params=hand_tuned",
+        f"--out={tmp_path}",
+        "--steps=20",
+        "--width=32",
+        "--height=32",
+        "--format=gif",
+        "--frames=2",
+        env=env,
+    )
+    assert out.returncode == 0, out.stderr
+    assert (tmp_path / "hand_tuned_filmstrip.png").exists()

@@ -1,12 +1,14 @@
 """Natural Actor-Critic (thesis Alg. 5.1): critic, natural gradient, DMP policy, determinism."""
 
+import dataclasses
+import json
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 
-from baselines import nac
+from baselines import nac, nac_experiments
 from cpg_suite import cpg
 
 
@@ -121,6 +123,31 @@ def test_run_writes_the_summary(tmp_path):
         assert key in summary
     assert summary["reward_before"] < 0 and not summary["diverged"]
     assert (tmp_path / "nac" / "darwin_balance" / "r" / "theta.json").exists()
+    # config.json holds the settings and the command that re-runs exactly this run.
+    config = json.loads((tmp_path / "nac" / "darwin_balance" / "r" / "config.json").read_text())
+    settings = nac.NACSettings(**_settings(tmp_path, steps=200))
+    assert config["settings"] == json.loads(json.dumps(dataclasses.asdict(settings)))
+    command = config["command"]
+    assert command.startswith("python -m baselines.nac ") and "--steps=200" in command
+    assert "--run_name=r" in command and "--overwrite" not in command
+
+
+def test_train_takes_the_settings_object(tmp_path):
+    as_dict = nac.train(_settings(tmp_path, steps=100), log=lambda line: None)
+    as_object = nac.train(nac.NACSettings(**_settings(tmp_path, steps=100)), log=lambda _: None)
+    np.testing.assert_array_equal(as_dict["theta"], as_object["theta"])
+    assert as_dict["rows"] == as_object["rows"]
+
+
+def test_experiment_runs_are_valid_nac_settings(tmp_path):
+    experiments = nac_experiments.NACExperimentSettings(
+        output_dir=str(tmp_path), seeds=2, steps=500, eval_seeds=1
+    )
+    for name, config in nac_experiments.CONFIGS.items():
+        run = nac_experiments.run_settings(name, 1, experiments)
+        assert isinstance(run, nac.NACSettings) and run.run_name == f"{name}_seed1"
+        assert (run.task, run.normalize, run.ridge) == tuple(config.values())
+        assert (run.steps, run.eval_seeds, run.seed) == (500, 1, 1)
 
 
 @pytest.mark.parametrize(

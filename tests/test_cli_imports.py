@@ -1,0 +1,67 @@
+"""The command-line modules are importable together: no flags, no environment changes.
+
+Each CLI defines its absl flags only when it runs as a program (`define_flags()` under
+`if __name__ == "__main__":`), so importing several of them in one process neither raises
+`DuplicateFlagError` nor defines a flag, and none of them (nor the rendering library)
+touches `os.environ` — `MUJOCO_GL` included — when imported.
+"""
+
+import json
+import os
+import subprocess
+import sys
+
+_MODULES = (
+    "baselines.evaluate",
+    "baselines.calibrate_cpg",
+    "cpg_suite.explore",
+    "baselines.nac",
+    "baselines.nac_experiments",
+    "cpg_suite.render",
+    "baselines.gait",
+)
+
+_CODE = r"""
+import importlib, json, os
+from absl import flags
+# Third-party import-time effects are not ours: import them first.
+import dm_control.suite, mujoco, pandas, tqdm  # noqa
+flags_before, environ_before = set(flags.FLAGS), dict(os.environ)
+for name in MODULES:
+    importlib.import_module(name)
+print(json.dumps({
+    "new_flags": sorted(set(flags.FLAGS) - flags_before),
+    "environ_same": dict(os.environ) == environ_before,
+    "mujoco_gl": os.environ.get("MUJOCO_GL"),
+}))
+"""
+
+
+def test_cli_modules_import_together_without_flags_or_environment_changes():
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY")}
+    code = f"MODULES = {_MODULES!r}\n" + _CODE
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert out.returncode == 0, out.stderr[-3000:]
+    report = json.loads(out.stdout.strip().splitlines()[-1])
+    assert report == {"new_flags": [], "environ_same": True, "mujoco_gl": None}
+
+
+def test_settings_are_checked_by_the_library():
+    import pytest
+
+    from baselines import calibrate_cpg, evaluate, nac, nac_experiments
+    from cpg_suite import render
+
+    for make, words in [
+        (lambda: evaluate.EvaluateSettings(seeds="3-1"), "malformed seeds"),
+        (lambda: evaluate.EvaluateSettings(task="pole_balance"), "unknown --task"),
+        (lambda: calibrate_cpg.CalibrationSettings(periods="a"), "--periods"),
+        (lambda: nac.NACSettings(gamma=1.0), "--gamma"),
+        (lambda: nac_experiments.NACExperimentSettings(seeds=1), "--seeds"),
+        (lambda: render.RenderSettings(frames=0), "--frames"),
+    ]:
+        with pytest.raises(ValueError, match=words):
+            make()
+    assert evaluate.EvaluateSettings(seeds="0,2-3").seed_list() == [0, 2, 3]
