@@ -32,15 +32,16 @@ from absl import flags
 
 from baselines import cli, progress, runs
 from baselines.tabular import models, planning, runner
+from baselines.tabular.settings import TabularSettings
 
 
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
-    global _OUTPUT_DIR, _SEEDS, _MOVES, _RESUME
-    _OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs/crawler", "Root of the output tree.")
-    _SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration (0..N-1).")
-    _MOVES = flags.DEFINE_integer("moves", 1000, "Learning moves of the real-time runs.")
-    _RESUME = flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
+    d = CrawlerExperimentSettings()
+    flags.DEFINE_string("output_dir", d.output_dir, "Root of the output tree.")
+    flags.DEFINE_integer("seeds", d.seeds, "Seeds per configuration (0..N-1).")
+    flags.DEFINE_integer("moves", d.moves, "Learning moves of the real-time runs.")
+    flags.DEFINE_bool("resume", d.resume, "Reuse runs that already have a summary.json.")
 
 
 REALTIME = (
@@ -68,16 +69,17 @@ PUBLISHED = {
 
 
 def _crawler_run(output_dir, algo, name, seed, resume, **overrides) -> dict:
-    settings = {
-        "task": "crawler_walk",
-        "algo": algo,
-        "seed": seed,
-        "output_dir": output_dir,
-        "run_name": f"{name}_seed{seed}",
+    """One run on `crawler_walk` (real time unless it explores first); returns its summary."""
+    realtime = algo in runner.PLANNERS and not overrides.get("explore_moves")
+    settings = TabularSettings(
+        task="crawler_walk",
+        algo=algo,
+        seed=seed,
+        output_dir=output_dir,
+        run_name=f"{name}_seed{seed}",
         **overrides,
-    }
-    if algo in runner.PLANNERS and not overrides.get("explore_moves"):
-        settings["realtime"] = True
+        **({"realtime": True} if realtime else {}),
+    )
     _, summary = runner.execute(settings, resume=resume)
     return summary
 
@@ -89,35 +91,32 @@ def _stats(values) -> str:
 
 
 def tokic_experiments(output_dir: str) -> list[str]:
-    """(a) VI and PI on the complete model; Fig. 4.4 data; γ sweep."""
+    """(a) VI and PI on the complete model; Fig. 4.4 data; γ sweep.
+
+    Args:
+      output_dir: Where `fig4_4.csv` is written.
+
+    Returns:
+      The markdown lines of section a.
+    """
     model = models.tokic_model()
-    lines = ["## a. The complete Tokic model (thesis Table 4.1)", ""]
     vi = planning.value_iteration(model, 0.9, sweeps=30)
     pi = planning.policy_iteration(model, 0.9, np.random.RandomState(0), iterations=30)
     cycle = planning.policy_cycle(model, planning.value_iteration(model, 0.9).policy)
-    cells = [model.label(s) for s in cycle.states]
-    rows = []
-    for name, result in (("value_iteration", vi), ("policy_iteration", pi)):
-        for k, values in enumerate(result.history):
-            for s in cycle.states:
-                rows.append(
-                    {
-                        "method": name,
-                        "iteration": k,
-                        "state": str(model.label(s)),
-                        "value": float(values[s]),
-                    }
-                )
-    runs.write_rows_csv(os.path.join(output_dir, "fig4_4.csv"), rows)
-
+    runs.write_rows_csv(
+        os.path.join(output_dir, "fig4_4.csv"), _fig4_4_rows(model, cycle.states, vi, pi)
+    )
     converged = planning.value_iteration(model, 0.9).values
 
     def gap(history, k):
         return float(np.abs(history[k][cycle.states] - converged[cycle.states]).max())
 
     pi_done = next((k for k in range(len(pi.history)) if gap(pi.history, k) < 1e-6), None)
-    lines += [
-        f"Greedy cycle at γ = 0.9 (value iteration to convergence): {cells}, "
+    lines = [
+        "## a. The complete Tokic model (thesis Table 4.1)",
+        "",
+        f"Greedy cycle at γ = 0.9 (value iteration to convergence): "
+        f"{[model.label(s) for s in cycle.states]}, "
         f"{cycle.length} states, reward {cycle.reward:g} per cycle (the study: 6 states, "
         "CR-1).",
         "",
@@ -129,6 +128,28 @@ def tokic_experiments(output_dir: str) -> list[str]:
         "25 × 25 linear system where a value-iteration sweep makes 25 backups (the study: "
         "value iteration converges faster, CR-5).",
         "",
+    ]
+    return lines + _gamma_sweep(model)
+
+
+def _fig4_4_rows(model: models.TabularModel, states: list[int], vi, pi) -> list[dict]:
+    """The values of the cycle states after each iteration of VI and PI (thesis Fig. 4.4)."""
+    return [
+        {
+            "method": name,
+            "iteration": k,
+            "state": str(model.label(s)),
+            "value": float(values[s]),
+        }
+        for name, result in (("value_iteration", vi), ("policy_iteration", pi))
+        for k, values in enumerate(result.history)
+        for s in states
+    ]
+
+
+def _gamma_sweep(model: models.TabularModel) -> list[str]:
+    """The greedy cycle of converged value iteration for each γ of `GAMMAS` (claim CR-4)."""
+    lines = [
         "| γ | greedy cycle from (0,0) | length | reward per cycle |",
         "|---|---|---|---|",
     ]
@@ -141,8 +162,25 @@ def tokic_experiments(output_dir: str) -> list[str]:
     return lines
 
 
-def explore_experiments(output_dir, seeds, resume) -> list[str]:
-    """(b) Gather a model by N random moves, then value iteration."""
+def explore_experiments(output_dir: str, seeds: int, resume: bool) -> list[str]:
+    """(b) Gather a model by N random moves, then value iteration.
+
+    Args:
+      output_dir: Root of the output tree.
+      seeds: Seeds per exploration length.
+      resume: Reuse finished runs.
+
+    Returns:
+      The markdown lines of section b.
+    """
+    jobs = [(n, s) for n in EXPLORE_MOVES for s in range(seeds)]
+    results = {n: [] for n in EXPLORE_MOVES}
+    for n, s in progress.track(jobs, desc="explore", unit="run"):
+        results[n].append(
+            _crawler_run(
+                output_dir, "value_iteration", f"explore{n}", s, resume, explore_moves=n, steps=n
+            )
+        )
     lines = [
         "## b. Model gathered by random exploration, then value iteration (approach 1b)",
         "",
@@ -150,13 +188,7 @@ def explore_experiments(output_dir, seeds, resume) -> list[str]:
         "over 100 moves (m) | cycle lengths |",
         "|---|---|---|---|",
     ]
-    for n in progress.track(EXPLORE_MOVES, desc="explore", unit="size"):
-        res = [
-            _crawler_run(
-                output_dir, "value_iteration", f"explore{n}", s, resume, explore_moves=n, steps=n
-            )
-            for s in range(seeds)
-        ]
+    for n, res in results.items():
         found = sum(r["cycle_learned_reward_m"] > 0 and r["displacement_m"] > 0.05 for r in res)
         lines.append(
             f"| {n} | {found}/{seeds} | {_stats([r['displacement_m'] for r in res])} | "
@@ -171,34 +203,52 @@ def explore_experiments(output_dir, seeds, resume) -> list[str]:
     return lines
 
 
-def realtime_experiments(output_dir, seeds, moves, resume) -> tuple[list[str], pd.DataFrame]:
-    """(c) Real-time learning, all seven algorithms, the study's ε schedule."""
-    rows = []
+# The columns of `crawler_realtime.csv` taken from each run's summary.
+REALTIME_COLUMNS = (
+    "displacement_m",
+    "cycle_length",
+    "cycle_joints",
+    "cycle_learned_reward_m",
+    "final_rms",
+    "learning_displacement_m",
+)
+
+
+def realtime_configs() -> list[tuple[str, str, dict]]:
+    """(algo, configuration name, setting overrides) of the real-time experiment (c)."""
     configs = [(a, a, {}) for a in REALTIME]
     configs += [(a, f"{a}_alpha{al:g}", {"alpha": al}) for a in REALTIME[2:] for al in (0.5, 1.0)]
     configs += [("value_iteration", "value_iteration_eps0.1", {"epsilon": "0.1"})]
-    for algo, name, overrides in progress.track(configs, desc="crawler", unit="config"):
-        for s in range(seeds):
-            r = _crawler_run(output_dir, algo, name, s, resume, steps=moves, **overrides)
-            rows.append(
-                {
-                    "config": name,
-                    "algo": algo,
-                    "seed": s,
-                    **{
-                        k: r[k]
-                        for k in (
-                            "displacement_m",
-                            "cycle_length",
-                            "cycle_joints",
-                            "cycle_learned_reward_m",
-                            "final_rms",
-                            "learning_displacement_m",
-                        )
-                    },
-                }
-            )
+    return configs
+
+
+def realtime_experiments(
+    output_dir: str, seeds: int, moves: int, resume: bool
+) -> tuple[list[str], pd.DataFrame]:
+    """(c) Real-time learning, all seven algorithms, the study's ε schedule.
+
+    Args:
+      output_dir: Root of the output tree.
+      seeds: Seeds per configuration.
+      moves: Learning moves per run.
+      resume: Reuse finished runs.
+
+    Returns:
+      The markdown lines of section c, and one row per run (`crawler_realtime.csv`).
+    """
+    jobs = [(config, s) for config in realtime_configs() for s in range(seeds)]
+    rows = []
+    for (algo, name, overrides), s in progress.track(jobs, desc="crawler", unit="run"):
+        r = _crawler_run(output_dir, algo, name, s, resume, steps=moves, **overrides)
+        rows.append(
+            {"config": name, "algo": algo, "seed": s, **{k: r[k] for k in REALTIME_COLUMNS}}
+        )
     df = pd.DataFrame(rows)
+    return _realtime_table(df, moves), df
+
+
+def _realtime_table(df: pd.DataFrame, moves: int) -> list[str]:
+    """The markdown table of section c: one line per configuration."""
     lines = [
         "## c. Real-time learning on the MuJoCo crawler",
         "",
@@ -219,16 +269,26 @@ def realtime_experiments(output_dir, seeds, moves, resume) -> tuple[list[str], p
             f"{PUBLISHED[algo] if name == algo else ''} |"
         )
     lines.append("")
-    return lines, df
+    return lines
 
 
-def stochastic_experiments(output_dir, seeds, moves, resume) -> list[str]:
-    """(d) The stochastic variant with real-time value iteration."""
+def stochastic_experiments(output_dir: str, seeds: int, moves: int, resume: bool) -> list[str]:
+    """(d) The stochastic variant with real-time value iteration.
+
+    Args:
+      output_dir: Root of the output tree.
+      seeds: Seeds.
+      moves: Learning moves per run.
+      resume: Reuse finished runs.
+
+    Returns:
+      The markdown lines of section d.
+    """
     res = [
         _crawler_run(
             output_dir, "value_iteration", "stochastic0.2", s, resume, steps=moves, stochastic=0.2
         )
-        for s in range(seeds)
+        for s in progress.track(range(seeds), desc="stochastic", unit="run")
     ]
     return [
         "## d. Stochastic variant (a move fails with probability 0.2)",
@@ -247,7 +307,14 @@ def stochastic_experiments(output_dir, seeds, moves, resume) -> list[str]:
 
 @dataclasses.dataclass(frozen=True)
 class CrawlerExperimentSettings:
-    """The crawler experiments: seeds, learning moves, where, resume or not."""
+    """The crawler experiments: seeds, learning moves, where, resume or not.
+
+    Attributes:
+      output_dir: Root of the output tree.
+      seeds: Seeds per configuration (0..seeds-1), ≥ 1.
+      moves: Learning moves of the real-time runs, ≥ 300 (the end of the ε schedule).
+      resume: Reuse runs that already have a summary.json.
+    """
 
     output_dir: str = "runs/crawler"
     seeds: int = 5
@@ -261,6 +328,12 @@ class CrawlerExperimentSettings:
 
 def run_experiments(settings: CrawlerExperimentSettings) -> list[str]:
     """Runs experiments a-d and writes their tables; returns the markdown lines.
+
+    Args:
+      settings: The experiments' settings.
+
+    Returns:
+      The lines of `crawler_experiments.md` (also written with `crawler_realtime.csv`).
 
     Raises:
       runs.RunDirectoryExists: If a run exists and `resume` is off.
@@ -283,7 +356,8 @@ def run_experiments(settings: CrawlerExperimentSettings) -> list[str]:
     return lines
 
 
-def main(argv):
+def main(argv: list[str]) -> None:
+    """Builds the settings from the flags, runs the experiments, prints the tables."""
     del argv
     settings = cli.settings_from_flags(CrawlerExperimentSettings)
     try:

@@ -28,18 +28,17 @@ from absl import flags
 
 from baselines import cli, progress, runs
 from baselines.tabular import runner
+from baselines.tabular.settings import TabularSettings
 
 
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
-    global _OUTPUT_DIR, _SEEDS, _STEPS, _FORCE_STEPS, _RESUME
-    _OUTPUT_DIR = flags.DEFINE_string("output_dir", "runs/pole_claims", "Root of the output tree.")
-    _SEEDS = flags.DEFINE_integer("seeds", 5, "Seeds per configuration (0..N-1).")
-    _STEPS = flags.DEFINE_integer("steps", 20000, "Learning steps per run (the study's α horizon).")
-    _FORCE_STEPS = flags.DEFINE_integer(
-        "force_steps", 5000, "Steps of the force comparison (Fig. 4.9)."
-    )
-    _RESUME = flags.DEFINE_bool("resume", False, "Skip runs that already have a summary.json.")
+    d = PoleClaimsSettings()
+    flags.DEFINE_string("output_dir", d.output_dir, "Root of the output tree.")
+    flags.DEFINE_integer("seeds", d.seeds, "Seeds per configuration (0..N-1).")
+    flags.DEFINE_integer("steps", d.steps, "Learning steps per run (the study's α horizon).")
+    flags.DEFINE_integer("force_steps", d.force_steps, "Steps of the force comparison (Fig. 4.9).")
+    flags.DEFINE_bool("resume", d.resume, "Skip runs that already have a summary.json.")
 
 
 LAST = 5000  # Steps at the end of a run that must pass without a fall ("balanced").
@@ -116,57 +115,75 @@ def _toward_fall_fraction(run_dir: str, forces: np.ndarray) -> float:
 def run_all(
     output_dir: str, seeds: int, steps: int, force_steps: int, resume: bool
 ) -> pd.DataFrame:
-    """Runs every configuration × seed; returns one row per run."""
+    """Runs every configuration × seed; returns one row per run.
+
+    Args:
+      output_dir: Root of the output tree.
+      seeds: Seeds per configuration (0..seeds-1).
+      steps: Learning steps of the long runs.
+      force_steps: Learning steps of the force comparison.
+      resume: Reuse runs that have a `summary.json`.
+
+    Returns:
+      One row per run (`run_row`).
+
+    Raises:
+      runs.RunDirectoryExists: If a run exists and `resume` is off.
+    """
     rows = []
     total = len(CONFIGS) * seeds
-    done = 0
     start = time.perf_counter()
-    for config in progress.track(CONFIGS, desc="pole configurations", unit="config"):
-        for seed in range(seeds):
-            settings = {
-                **config.settings(),
-                "seed": seed,
-                "output_dir": output_dir,
-                "steps": steps if config.long else force_steps,
-                "run_name": f"{config.name}_seed{seed}",
-            }
-            run_dir, summary = runner.execute(settings, resume=resume)
-            forces = np.array([-1.0, 0.0, 1.0] if settings["actions"] == 3 else [-1.0, 1.0])
-            first = min(LAST, settings["steps"])
-            episodes = pd.read_csv(os.path.join(run_dir, "progress.csv"))
-            fell = episodes["fell"] == 1
-            falls_early = int((fell & (episodes["end_step"] <= first)).sum())
-            half = settings["steps"] // 2
-            angles = np.load(os.path.join(run_dir, "angles.npy")).astype(np.float64)
-            rows.append(
-                {
-                    "config": config.name,
-                    "seed": seed,
-                    **{k: settings[k] for k in BASE},
-                    "steps": settings["steps"],
-                    "falls": summary["falls"],
-                    "falls_first_5000": falls_early,
-                    "last_fall_step": summary["last_fall_step"],
-                    "longest_balance_steps": summary["longest_balance_steps"],
-                    "balanced": bool(summary[f"balanced_last_{LAST}"]),
-                    "rms_angle_last": summary[f"rms_angle_last_{LAST}"],
-                    "max_abs_angle_last": summary[f"max_abs_angle_last_{LAST}"],
-                    "falls_second_half": int((fell & (episodes["end_step"] > half)).sum()),
-                    "rms_angle_second_half": float(np.sqrt(np.mean(angles[half:] ** 2))),
-                    "toward_fall_fraction": _toward_fall_fraction(run_dir, forces),
-                    "q_table_abs_max": float(
-                        np.abs(np.load(os.path.join(run_dir, "q_table.npy"))).max()
-                    ),
-                }
+    jobs = [(config, seed) for config in CONFIGS for seed in range(seeds)]
+    for config, seed in progress.track(jobs, desc="pole runs", unit="run"):
+        settings = run_settings(config, seed, output_dir, steps if config.long else force_steps)
+        run_dir, summary = runner.execute(settings, resume=resume)
+        rows.append(run_row(config, settings, run_dir, summary))
+        if seed == seeds - 1:
+            progress.write(
+                f"[{len(rows)}/{total}] {config.name}: balanced "
+                f"{sum(r['balanced'] for r in rows[-seeds:])}/{seeds} "
+                f"({time.perf_counter() - start:.0f} s)"
             )
-            done += 1
-        print(
-            f"[{done}/{total}] {config.name}: balanced "
-            f"{sum(r['balanced'] for r in rows[-seeds:])}/{seeds} "
-            f"({time.perf_counter() - start:.0f} s)",
-            flush=True,
-        )
     return pd.DataFrame(rows)
+
+
+def run_settings(config: Config, seed: int, output_dir: str, steps: int) -> TabularSettings:
+    """The tabular settings of one run: the configuration's, with its seed and run name."""
+    return TabularSettings(
+        **config.settings(),
+        seed=seed,
+        output_dir=output_dir,
+        steps=steps,
+        run_name=f"{config.name}_seed{seed}",
+    )
+
+
+def run_row(config: Config, settings: TabularSettings, run_dir: str, summary: dict) -> dict:
+    """One row of `pole_runs.csv`: the run's settings, its summary and the measures read
+    from its run files (falls early and late, angles, push directions, Q range)."""
+    forces = np.array([-1.0, 0.0, 1.0] if settings.actions == 3 else [-1.0, 1.0])
+    first = min(LAST, settings.steps)
+    episodes = pd.read_csv(os.path.join(run_dir, "progress.csv"))
+    fell = episodes["fell"] == 1
+    half = settings.steps // 2
+    angles = np.load(os.path.join(run_dir, "angles.npy")).astype(np.float64)
+    return {
+        "config": config.name,
+        "seed": settings.seed,
+        **{k: getattr(settings, k) for k in BASE},
+        "steps": settings.steps,
+        "falls": summary["falls"],
+        "falls_first_5000": int((fell & (episodes["end_step"] <= first)).sum()),
+        "last_fall_step": summary["last_fall_step"],
+        "longest_balance_steps": summary["longest_balance_steps"],
+        "balanced": bool(summary[f"balanced_last_{LAST}"]),
+        "rms_angle_last": summary[f"rms_angle_last_{LAST}"],
+        "max_abs_angle_last": summary[f"max_abs_angle_last_{LAST}"],
+        "falls_second_half": int((fell & (episodes["end_step"] > half)).sum()),
+        "rms_angle_second_half": float(np.sqrt(np.mean(angles[half:] ** 2))),
+        "toward_fall_fraction": _toward_fall_fraction(run_dir, forces),
+        "q_table_abs_max": float(np.abs(np.load(os.path.join(run_dir, "q_table.npy"))).max()),
+    }
 
 
 def aggregate(per_run: pd.DataFrame) -> pd.DataFrame:
@@ -465,7 +482,15 @@ def _has_tabulate() -> bool:
 
 @dataclasses.dataclass(frozen=True)
 class PoleClaimsSettings:
-    """The pole claims experiment: how many seeds and steps, where, resume or not."""
+    """The pole claims experiment: how many seeds and steps, where, resume or not.
+
+    Attributes:
+      output_dir: Root of the output tree.
+      seeds: Seeds per configuration (0..seeds-1), ≥ 2 (the claims compare seeds).
+      steps: Learning steps per run, more than `LAST` (the study's α horizon).
+      force_steps: Learning steps of the force comparison (thesis Fig. 4.9).
+      resume: Skip runs that already have a summary.json.
+    """
 
     output_dir: str = "runs/pole_claims"
     seeds: int = 5
@@ -481,6 +506,9 @@ class PoleClaimsSettings:
 
 def run_experiment(settings: PoleClaimsSettings) -> list[dict]:
     """Runs (or reuses) every pole run, aggregates them, judges the claims, writes the files.
+
+    Args:
+      settings: The experiment's settings.
 
     Returns:
       The judged claims.
@@ -500,7 +528,8 @@ def run_experiment(settings: PoleClaimsSettings) -> list[dict]:
     return claims
 
 
-def main(argv):
+def main(argv: list[str]) -> None:
+    """Builds the settings from the flags, runs the experiment, prints the claims."""
     del argv
     settings = cli.settings_from_flags(PoleClaimsSettings)
     try:

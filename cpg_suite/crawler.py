@@ -68,6 +68,11 @@ def cell_index(row: int, col: int) -> int:
     return row * GRID + col
 
 
+def cell_angles(row: int, col: int) -> np.ndarray:
+    """The (g_y, g_x) joint angles, rad, of a grid cell."""
+    return np.array([GY_ANGLES[row], GX_ANGLES[col]])
+
+
 def move(row: int, col: int, action: int) -> tuple[int, int, bool]:
     """The cell an action leads to, and whether it was blocked by the grid's edge."""
     dr, dc = MOVES[action]
@@ -133,6 +138,10 @@ class Physics(mujoco.Physics):
         """(g_y, g_x) joint angles, rad."""
         return self.data.qpos[self._arm]
 
+    def set_arm_angles(self, angles) -> None:
+        """Sets the (g_y, g_x) joint angles, rad (positions only; call before a step)."""
+        self.data.qpos[self._arm] = angles
+
     def set_arm_targets(self, angles) -> None:
         """Sets the (g_y, g_x) servo targets, rad."""
         self.data.ctrl[self._act] = angles
@@ -170,11 +179,11 @@ class Walk(base.Task):
     def initialize_episode(self, physics: Physics) -> None:
         self.cell = (0, 0)
         self.blocked = self.slipped = False
-        angles = np.array([GY_ANGLES[0], GX_ANGLES[0]])
+        angles = cell_angles(*self.cell)
         angles += self.random.uniform(-_INIT_NOISE, _INIT_NOISE, size=2)
-        physics.data.qpos[physics._arm] = angles
+        physics.set_arm_angles(angles)
         physics.data.act[:] = angles  # The servo filters start at the pose.
-        physics.set_arm_targets(np.array([GY_ANGLES[0], GX_ANGLES[0]]))
+        physics.set_arm_targets(cell_angles(*self.cell))
         physics.step(int(round(_SETTLE_TIME / physics.model.opt.timestep)))
         physics.data.time = 0.0
         self._x_before = physics.chassis_x()
@@ -188,7 +197,7 @@ class Walk(base.Task):
         )
         if not self.blocked and not self.slipped:
             self.cell = (r, c)
-        physics.set_arm_targets(np.array([GY_ANGLES[self.cell[0]], GX_ANGLES[self.cell[1]]]))
+        physics.set_arm_targets(cell_angles(*self.cell))
         self._x_before = physics.chassis_x()
 
     def get_observation(self, physics: Physics) -> collections.OrderedDict:

@@ -19,125 +19,68 @@ from absl import flags
 
 from baselines import cli, runs
 from baselines.tabular import learners, models, runner
-from baselines.tabular.runner import ALGOS
+from baselines.tabular.settings import ALGOS, DEFAULTS, POLE_REWARDS, TabularSettings
 
-_D = runner.DEFAULTS
+# Flag help per setting: (absl definer, help). Defaults come from `TabularSettings`.
+_FLAGS = {
+    "task": ("string", "Discrete task id, e.g. pole_balance."),
+    "model": ("string", f"Tabular model: {', '.join(models.MODELS)}."),
+    "algo": ("string", f"One of: {', '.join(ALGOS)}."),
+    "gamma": ("float", "Discount factor γ in [0, 1]."),
+    "alpha": ("float", "Learning rate α in [0, 1] (TD learners)."),
+    "lam": ("float", "Trace decay λ in [0, 1] (sarsa_lambda, td_lambda)."),
+    "trace": (list(learners.TRACES), "Trace type."),
+    "double_alpha": ("bool", "Use the thesis' printed δ = α[...] (α applied twice)."),
+    "epsilon": (
+        "string",
+        "ε: a constant like 0.1, or step:value points like 0:0.9,100:0.9,300:0 (default: the "
+        "study's real-time schedule on the crawler, 0 elsewhere).",
+    ),
+    "steps": ("integer", "Online learning steps (iterations)."),
+    "sweeps": ("integer", "value_iteration: exactly this many sweeps (default: until converged)."),
+    "iterations": (
+        "integer",
+        "policy_iteration: exactly this many iterations (default: until stable).",
+    ),
+    "eval_sweeps": ("integer", "policy_iteration: sweeps per evaluation (default: exact solve)."),
+    "tol": ("float", "value_iteration convergence tolerance."),
+    "slip": ("float", "Model: probability that a move does not happen."),
+    "bins": ("string", "Pole: ANGLExVELOCITY bins (20x20) or ANGLE (100)."),
+    "force": ("float", "Pole: push force, N (task default 0.5)."),
+    "actions": ("integer", "Pole: 3 for {-F, 0, +F}, 2 for {-F, +F}."),
+    "reward": (list(POLE_REWARDS), "Pole reward variant."),
+    "seed": ("integer", "Random seed (initial states, exploration, ties)."),
+    "output_dir": ("string", "Root of the output tree."),
+    "run_name": ("string", "Run directory name (default seed<N>)."),
+    "overwrite": ("bool", "Replace an existing run directory."),
+    "realtime": ("bool", "Crawler: plan (value/policy iteration) on rewards measured online."),
+    "explore_moves": ("integer", "Crawler: first N moves random (ε = 1), approach 1b."),
+    "stochastic": ("float", "Crawler: probability that a move does not happen."),
+    "eval_moves": ("integer", "Crawler: moves of the frozen greedy policy after learning."),
+}
 
 
 def define_flags() -> None:
-    """Defines this module's command-line flags (only when it runs as a program)."""
-    global \
-        _TASK, \
-        _MODEL, \
-        _ALGO, \
-        _GAMMA, \
-        _ALPHA, \
-        _LAMBDA, \
-        _TRACE, \
-        _DOUBLE_ALPHA, \
-        _EPSILON, \
-        _STEPS, \
-        _SWEEPS, \
-        _ITERATIONS, \
-        _EVAL_SWEEPS, \
-        _TOL, \
-        _SLIP, \
-        _BINS, \
-        _FORCE, \
-        _ACTIONS, \
-        _REWARD, \
-        _SEED, \
-        _OUTPUT_DIR, \
-        _RUN_NAME, \
-        _OVERWRITE, \
-        _REALTIME, \
-        _MOVES, \
-        _EXPLORE_MOVES, \
-        _STOCHASTIC, \
-        _EVAL_MOVES
-    _TASK = flags.DEFINE_string("task", _D["task"], "Discrete task id, e.g. pole_balance.")
-    _MODEL = flags.DEFINE_string(
-        "model", _D["model"], f"Tabular model: {', '.join(models.MODELS)}."
-    )
-    _ALGO = flags.DEFINE_string("algo", _D["algo"], f"One of: {', '.join(ALGOS)}.")
-    _GAMMA = flags.DEFINE_float("gamma", _D["gamma"], "Discount factor γ in [0, 1].")
-    _ALPHA = flags.DEFINE_float("alpha", _D["alpha"], "Learning rate α in [0, 1] (TD learners).")
-    _LAMBDA = flags.DEFINE_float(
-        "lam", _D["lam"], "Trace decay λ in [0, 1] (sarsa_lambda, td_lambda)."
-    )
-    _TRACE = flags.DEFINE_enum("trace", _D["trace"], list(learners.TRACES), "Trace type.")
-    _DOUBLE_ALPHA = flags.DEFINE_bool(
-        "double_alpha", _D["double_alpha"], "Use the thesis' printed δ = α[...] (α applied twice)."
-    )
-    _EPSILON = flags.DEFINE_string(
-        "epsilon",
-        _D["epsilon"],
-        "ε: a constant like 0.1, or step:value points like 0:0.9,100:0.9,300:0 (default: the "
-        "study's real-time schedule on the crawler, 0 elsewhere).",
-    )
-    _STEPS = flags.DEFINE_integer("steps", _D["steps"], "Online learning steps (iterations).")
-    _SWEEPS = flags.DEFINE_integer(
-        "sweeps",
-        _D["sweeps"],
-        "value_iteration: exactly this many sweeps (default: until converged).",
-    )
-    _ITERATIONS = flags.DEFINE_integer(
-        "iterations",
-        _D["iterations"],
-        "policy_iteration: exactly this many iterations (default: until stable).",
-    )
-    _EVAL_SWEEPS = flags.DEFINE_integer(
-        "eval_sweeps",
-        _D["eval_sweeps"],
-        "policy_iteration: sweeps per evaluation (default: exact solve).",
-    )
-    _TOL = flags.DEFINE_float("tol", _D["tol"], "value_iteration convergence tolerance.")
-    _SLIP = flags.DEFINE_float(
-        "slip", _D["slip"], "Model: probability that a move does not happen."
-    )
-    _BINS = flags.DEFINE_string(
-        "bins", _D["bins"], "Pole: ANGLExVELOCITY bins (20x20) or ANGLE (100)."
-    )
-    _FORCE = flags.DEFINE_float("force", _D["force"], "Pole: push force, N (task default 0.5).")
-    _ACTIONS = flags.DEFINE_integer(
-        "actions", _D["actions"], "Pole: 3 for {-F, 0, +F}, 2 for {-F, +F}."
-    )
-    _REWARD = flags.DEFINE_enum(
-        "reward", _D["reward"], ["angle", "approach"], "Pole reward variant."
-    )
-    _SEED = flags.DEFINE_integer(
-        "seed", _D["seed"], "Random seed (initial states, exploration, ties)."
-    )
-    _OUTPUT_DIR = flags.DEFINE_string("output_dir", _D["output_dir"], "Root of the output tree.")
-    _RUN_NAME = flags.DEFINE_string(
-        "run_name", _D["run_name"], "Run directory name (default seed<N>)."
-    )
-    _OVERWRITE = flags.DEFINE_bool(
-        "overwrite", _D["overwrite"], "Replace an existing run directory."
-    )
-    _REALTIME = flags.DEFINE_bool(
-        "realtime",
-        _D["realtime"],
-        "Crawler: plan (value/policy iteration) on rewards measured online.",
-    )
-    _MOVES = flags.DEFINE_integer("moves", None, "Crawler: learning moves (same as --steps).")
-    _EXPLORE_MOVES = flags.DEFINE_integer(
-        "explore_moves", _D["explore_moves"], "Crawler: first N moves random (ε = 1), approach 1b."
-    )
-    _STOCHASTIC = flags.DEFINE_float(
-        "stochastic", _D["stochastic"], "Crawler: probability that a move does not happen."
-    )
-    _EVAL_MOVES = flags.DEFINE_integer(
-        "eval_moves", _D["eval_moves"], "Crawler: moves of the frozen greedy policy after learning."
-    )
+    """Defines this module's command-line flags (only when it runs as a program).
+
+    One flag per field of `TabularSettings`, with its default, plus `--moves` (the crawler's
+    name for `--steps`).
+    """
+    for name, (kind, help_text) in _FLAGS.items():
+        if isinstance(kind, list):
+            flags.DEFINE_enum(name, DEFAULTS[name], kind, help_text)
+        else:
+            getattr(flags, f"DEFINE_{kind}")(name, DEFAULTS[name], help_text)
+    flags.DEFINE_integer("moves", None, "Crawler: learning moves (same as --steps).")
 
 
-def main(argv):
+def main(argv: list[str]) -> None:
+    """Builds the settings from the flags, runs them and prints the summary."""
     del argv
-    values = flags.FLAGS
-    cli.check(values.moves is None or values.moves >= 1, f"--moves must be ≥ 1, got {values.moves}")
-    overrides = {"steps": values.moves} if values.moves is not None else {}
-    settings = cli.settings_from_flags(runner.TabularSettings, **overrides)
+    moves = flags.FLAGS.moves
+    cli.check(moves is None or moves >= 1, f"--moves must be ≥ 1, got {moves}")
+    overrides = {"steps": moves} if moves is not None else {}
+    settings = cli.settings_from_flags(TabularSettings, **overrides)
     try:
         run_dir, summary = runner.execute(settings)
     except runs.RunDirectoryExists as e:

@@ -73,13 +73,14 @@ class TabularModel:
 
 
 def grid_index(r: int, c: int, cols: int = crawler.GRID) -> int:
+    """State index of cell (r, c) in a grid of `cols` columns (row-major, as the crawler's)."""
     return r * cols + c
 
 
 def grid_model(
     rewards: dict[tuple[tuple[int, int], tuple[int, int]], float],
-    rows: int = 5,
-    cols: int = 5,
+    rows: int = crawler.GRID,
+    cols: int = crawler.GRID,
     slip: float = 0.0,
     name: str = "grid",
     start: tuple[int, int] = (0, 0),

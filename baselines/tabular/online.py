@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from baselines import progress
 from baselines.tabular.exploration import EpsilonSchedule
 from baselines.tabular.learners import Learner
 
@@ -57,7 +58,7 @@ def run_online(
     on_episode: Callable[[Episode], None] | None = None,
     on_step: Callable[[], None] | None = None,
 ) -> OnlineResult:
-    """Runs `steps` learning steps of `learner` on `env`.
+    """Runs `steps` learning steps of `learner` on `env` (thesis Alg. 4.2).
 
     Args:
       env: A `dm_env.Environment` with a discrete action spec.
@@ -72,53 +73,80 @@ def run_online(
     Returns:
       An `OnlineResult`.
     """
-    rewards = np.zeros(steps)
-    states = np.zeros(steps, dtype=np.int64)
-    actions = np.zeros(steps, dtype=np.int64)
-    recorded = {k: np.zeros(steps) for k in record}
-    episodes: list[Episode] = []
-    fall_steps: list[int] = []
-
+    log = _Log(steps, record, on_episode)
     ts = env.reset()
     s = to_state(ts.observation)
     a = learner.act(s, epsilon(0))
-    start, ret = 0, 0.0
-    for t in range(steps):
+    for t in progress.track(range(steps), desc="online learning", unit="step"):
         ts = env.step(a)
-        r = float(ts.reward)
         s2 = to_state(ts.observation)
-        states[t], actions[t], rewards[t] = s, a, r
-        for k in record:
-            recorded[k][t] = float(np.asarray(ts.observation[k]).reshape(-1)[0])
-        ret += r
-        if learner.on_policy:  # SARSA: choose a', then update on it.
-            a2 = learner.act(s2, epsilon(t + 1))
-            learner.update(s, a, r, s2, float(ts.discount), a2)
-        else:  # Q-learning, TD: update, then choose with the updated table.
-            learner.update(s, a, r, s2, float(ts.discount))
-            a2 = learner.act(s2, epsilon(t + 1))
+        log.step(t, s, a, ts)
+        a2 = _learn(learner, s, a, float(ts.reward), s2, float(ts.discount), epsilon(t + 1))
         if on_step is not None:
             on_step()
-        if ts.last():
-            fell = ts.discount == 0.0
-            if fell:
-                fall_steps.append(t)
-            episode = Episode(len(episodes), start, t + 1, fell, ret)
-            episodes.append(episode)
-            if on_episode is not None:
-                on_episode(episode)
+        if ts.last():  # No learning episodes: reset and go on with the same tables.
+            log.end_episode(t + 1, fell=ts.discount == 0.0)
             learner.end_episode()
             ts = env.reset()
             s2 = to_state(ts.observation)
             a2 = learner.act(s2, epsilon(t + 1))
-            start, ret = t + 1, 0.0
         s, a = s2, a2
-    if start < steps:
-        episode = Episode(len(episodes), start, steps, False, ret)
-        episodes.append(episode)
-        if on_episode is not None:
-            on_episode(episode)
-    return OnlineResult(rewards, states, actions, recorded, episodes, fall_steps)
+    return log.result()
+
+
+def _learn(
+    learner: Learner, s: int, a: int, r: float, s2: int, discount: float, next_epsilon: float
+) -> int:
+    """One learning update on s --a--> s2; returns the next action a'."""
+    if learner.on_policy:  # SARSA: choose a', then update on it.
+        a2 = learner.act(s2, next_epsilon)
+        learner.update(s, a, r, s2, discount, a2)
+    else:  # Q-learning, TD: update, then choose with the updated table.
+        learner.update(s, a, r, s2, discount)
+        a2 = learner.act(s2, next_epsilon)
+    return a2
+
+
+class _Log:
+    """What `run_online` records: the trajectory, the episodes and the falls."""
+
+    def __init__(
+        self, steps: int, record: tuple[str, ...], on_episode: Callable[[Episode], None] | None
+    ):
+        self.steps, self.record, self.on_episode = steps, record, on_episode
+        self.rewards = np.zeros(steps)
+        self.states = np.zeros(steps, dtype=np.int64)
+        self.actions = np.zeros(steps, dtype=np.int64)
+        self.recorded = {k: np.zeros(steps) for k in record}
+        self.episodes: list[Episode] = []
+        self.fall_steps: list[int] = []
+        self.start, self.ret = 0, 0.0
+
+    def step(self, t: int, s: int, a: int, ts) -> None:
+        """Records step t: state and action before it, its reward and observations."""
+        r = float(ts.reward)
+        self.states[t], self.actions[t], self.rewards[t] = s, a, r
+        for k in self.record:
+            self.recorded[k][t] = float(np.asarray(ts.observation[k]).reshape(-1)[0])
+        self.ret += r
+
+    def end_episode(self, end: int, fell: bool) -> None:
+        """Closes the episode that ends before step `end` (exclusive)."""
+        if fell:
+            self.fall_steps.append(end - 1)
+        episode = Episode(len(self.episodes), self.start, end, fell, self.ret)
+        self.episodes.append(episode)
+        if self.on_episode is not None:
+            self.on_episode(episode)
+        self.start, self.ret = end, 0.0
+
+    def result(self) -> OnlineResult:
+        """Closes an unfinished last episode and returns the run's record."""
+        if self.start < self.steps:
+            self.end_episode(self.steps, fell=False)
+        return OnlineResult(
+            self.rewards, self.states, self.actions, self.recorded, self.episodes, self.fall_steps
+        )
 
 
 def balance_metrics(result: OnlineResult, last: int = 5000) -> dict:

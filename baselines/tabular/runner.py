@@ -1,7 +1,7 @@
-"""Runs one tabular experiment from a settings dict and writes its run directory.
+"""Runs one tabular experiment from its settings and writes its run directory.
 
-Shared by `python -m baselines.tabular` and the experiment scripts. `DEFAULTS` lists every
-setting; `execute(settings)` fills in the defaults, runs, and writes
+Shared by `python -m baselines.tabular` and the experiment scripts: `execute(settings)` runs
+a `TabularSettings` (or a dict of settings; missing keys take their defaults) and writes
 `<output_dir>/<algo>/<task or model>/<run_name>/` (docs/architecture.md#run-directories).
 """
 
@@ -16,141 +16,20 @@ import numpy as np
 import cpg_suite
 from baselines import runs
 from baselines.tabular import discretize, exploration, learners, model_env, models, planning
-from baselines.tabular.online import balance_metrics, run_online
-from cpg_suite.crawler import GRID
-
-PLANNERS = ("value_iteration", "policy_iteration")
-ALGOS = PLANNERS + tuple(learners.LEARNERS)
-
-
-@dataclasses.dataclass(frozen=True)
-class TabularSettings:
-    """Every setting of a tabular run (the flags of `python -m baselines.tabular`).
-
-    Exactly one of `task` (a discrete task id) and `model` (a tabular model) is given; see
-    the CLI's flag help for each field. Validated on construction.
-    """
-
-    task: str | None = None
-    model: str | None = None
-    algo: str = "q_learning"
-    gamma: float = 0.9
-    alpha: float = 0.1
-    lam: float = 0.9
-    trace: str = "accumulating"
-    double_alpha: bool = False
-    epsilon: str | None = None
-    steps: int = 20000
-    sweeps: int | None = None
-    iterations: int | None = None
-    eval_sweeps: int | None = None
-    tol: float = 1e-9
-    slip: float = 0.0
-    bins: str = "20x20"
-    force: float | None = None
-    actions: int = 3
-    reward: str = "angle"
-    seed: int = 0
-    output_dir: str = "runs"
-    run_name: str | None = None
-    overwrite: bool = False
-    realtime: bool = False
-    explore_moves: int = 0
-    stochastic: float = 0.0
-    eval_moves: int = 100
-
-    def __post_init__(self):
-        _check_target(self)
-        _check_ranges(self)
-        try:
-            if self.epsilon is not None:
-                exploration.EpsilonSchedule.parse(self.epsilon)
-            bins = discretize.parse_bins(self.bins)
-        except ValueError as e:
-            raise ValueError(str(e)) from None
-        require(len(bins) in (1, 2), f"--bins takes 1 or 2 counts, got {self.bins!r}")
-
-
-def require(condition: bool, message: str) -> None:
-    if not condition:
-        raise ValueError(message)
-
-
-def _check_target(s: TabularSettings) -> None:
-    """The task or model, and which algorithms can run on it."""
-    require(
-        (s.task is None) != (s.model is None),
-        f"give exactly one of --task (a discrete task) or --model ({', '.join(models.MODELS)})",
-    )
-    require(s.algo in ALGOS, f"unknown --algo {s.algo!r}; valid: {', '.join(ALGOS)}")
-    if s.model is not None:
-        require(
-            s.model in models.MODELS,
-            f"unknown --model {s.model!r}; valid: {', '.join(models.MODELS)}",
-        )
-        return
-    cpg_suite.split_task_id(s.task)  # ValueError listing the valid ids
-    crawler = s.task.startswith("crawler")
-    require(
-        s.algo not in PLANNERS or (crawler and (s.realtime or s.explore_moves > 0)),
-        f"{s.algo} needs a complete model (--model=tokic), or on the crawler a model "
-        "measured online (--realtime or --explore_moves=N)",
-    )
-    require(
-        s.algo not in ("td0", "td_lambda") or not s.task.startswith("pole"),
-        f"{s.algo} learns state values and acts through a known successor "
-        "function, which the pole does not have; use q_learning, sarsa or sarsa_lambda",
-    )
-    require(
-        hasattr(cpg_suite.load(s.task).action_spec(), "num_values"),
-        f"{s.task} has continuous actions; tabular methods need a discrete "
-        "task such as pole_balance",
-    )
-    require(s.task.startswith(("pole", "crawler")), f"no discretizer is defined for {s.task}")
-
-
-def _check_ranges(s: TabularSettings) -> None:
-    """Numeric ranges of the settings."""
-    for name in ("gamma", "alpha", "lam"):
-        value = getattr(s, name)
-        require(0.0 <= value <= 1.0, f"--{name} must lie in [0, 1], got {value}")
-    require(0.0 <= s.slip < 1.0, f"--slip must lie in [0, 1), got {s.slip}")
-    require(s.steps >= 1, f"--steps must be ≥ 1, got {s.steps}")
-    for name, low in (("sweeps", 0), ("iterations", 1), ("eval_sweeps", 1)):
-        value = getattr(s, name)
-        require(value is None or value >= low, f"--{name} must be ≥ {low}, got {value}")
-    require(s.tol > 0, f"--tol must be > 0, got {s.tol}")
-    require(s.seed >= 0, f"--seed must be ≥ 0, got {s.seed}")
-    require(s.actions in (2, 3), f"--actions must be 2 or 3, got {s.actions}")
-    require(
-        s.force is None or (np.isfinite(s.force) and s.force > 0),
-        f"--force must be a positive number of newtons, got {s.force}",
-    )
-    require(s.explore_moves >= 0, f"--explore_moves must be ≥ 0, got {s.explore_moves}")
-    require(0.0 <= s.stochastic < 1.0, f"--stochastic must lie in [0, 1), got {s.stochastic}")
-    require(s.eval_moves >= 0, f"--eval_moves must be ≥ 0, got {s.eval_moves}")
-    require(
-        not (s.algo == "policy_iteration" and s.gamma >= 1.0 and s.model is None),
-        "policy_iteration in real time needs --gamma < 1",
-    )
-
-
-# Every setting of a tabular run and its default (the fields of `TabularSettings`).
-DEFAULTS = {f.name: f.default for f in dataclasses.fields(TabularSettings)}
-
-# The study's real-time ε schedule (thesis Sec. 4.1.7): 0.9 for 100 moves, 0 at move 300.
-CRAWLER_EPSILON = "0:0.9,100:0.9,300:0"
-
-
-def default_epsilon(settings: dict) -> str:
-    """ε when none is given: the study's schedule on the crawler, 0 elsewhere."""
-    if settings.get("epsilon") is not None:
-        return settings["epsilon"]
-    return CRAWLER_EPSILON if (settings.get("task") or "").startswith("crawler") else "0"
+from baselines.tabular.online import OnlineResult, balance_metrics, run_online
+from baselines.tabular.settings import (  # noqa: F401  (re-exported: the runner's settings)
+    ALGOS,
+    CRAWLER_EPSILON,
+    DEFAULTS,
+    PLANNERS,
+    TabularSettings,
+    default_epsilon,
+)
+from cpg_suite import crawler
 
 
 def make_learner(
-    settings: dict,
+    settings: TabularSettings,
     n_states: int,
     n_actions: int,
     rng: np.random.RandomState,
@@ -158,28 +37,37 @@ def make_learner(
     successor=None,
     tie_order=None,
 ) -> learners.Learner:
-    """Builds the learner `settings["algo"]` with the settings' γ, α, λ, trace, double α."""
-    algo = settings["algo"]
+    """Builds the learner `settings.algo` with the settings' γ, α, λ, trace, double α.
+
+    Args:
+      settings: The run's settings.
+      n_states: Number of states.
+      n_actions: Number of actions.
+      rng: Random generator for exploration and ties.
+      allowed: (n_states, n_actions) mask of allowed actions (default: all).
+      successor: Known deterministic successor `(s, a) -> s2` (V-learners, planners).
+      tie_order: Action order for deterministic tie-breaking.
+
+    Returns:
+      The learner.
+    """
+    algo = settings.algo
     kwargs = dict(rng=rng, allowed=allowed, tie_order=tie_order)
     if algo in learners.REALTIME_PLANNERS:
         return learners.REALTIME_PLANNERS[algo](
             n_states,
             n_actions,
-            settings["gamma"],
-            settings["alpha"],
+            settings.gamma,
+            settings.alpha,
             successor=successor,
-            slip=settings.get("stochastic", 0.0),
+            slip=settings.stochastic,
             **kwargs,
         )
     if algo in ("sarsa_lambda", "td_lambda"):
-        kwargs.update(
-            lam=settings["lam"], trace=settings["trace"], double_alpha=settings["double_alpha"]
-        )
+        kwargs.update(lam=settings.lam, trace=settings.trace, double_alpha=settings.double_alpha)
     if algo in ("td0", "td_lambda"):
         kwargs["successor"] = successor
-    return learners.LEARNERS[algo](
-        n_states, n_actions, settings["gamma"], settings["alpha"], **kwargs
-    )
+    return learners.LEARNERS[algo](n_states, n_actions, settings.gamma, settings.alpha, **kwargs)
 
 
 def _cycle_summary(model: models.TabularModel, policy: np.ndarray) -> dict:
@@ -198,33 +86,35 @@ def _values_table(model: models.TabularModel, values: np.ndarray) -> np.ndarray:
     return values.reshape(model.grid_shape) if model.grid_shape else values[None, :]
 
 
-def run_planner(run_dir: str, settings: dict, model: models.TabularModel) -> dict:
-    """Value or policy iteration on a complete model; writes values, history and progress."""
-    gamma = settings["gamma"]
-    if settings["algo"] == "value_iteration":
-        result = planning.value_iteration(
-            model, gamma, sweeps=settings["sweeps"], tol=settings["tol"]
-        )
+# ---------------------------------------------------------------------------------------
+# Planning on a complete model (thesis Alg. 4.1).
+
+
+def run_planner(run_dir: str, settings: TabularSettings, model: models.TabularModel) -> dict:
+    """Value or policy iteration on a complete model; writes values, history and progress.
+
+    Args:
+      run_dir: The run directory.
+      settings: The run's settings (`algo` is a planner).
+      model: The complete model.
+
+    Returns:
+      The summary entries: iterations, convergence and the greedy cycle.
+    """
+    gamma = settings.gamma
+    if settings.algo == "value_iteration":
+        result = planning.value_iteration(model, gamma, sweeps=settings.sweeps, tol=settings.tol)
     else:
         result = planning.policy_iteration(
             model,
             gamma,
-            np.random.RandomState(settings["seed"]),
-            eval_sweeps=settings["eval_sweeps"],
-            iterations=settings["iterations"],
+            np.random.RandomState(settings.seed),
+            eval_sweeps=settings.eval_sweeps,
+            iterations=settings.iterations,
         )
-    rows = []
-    for k in range(1, len(result.history)):
-        policy_k = planning.greedy_policy(model, result.history[k], gamma)
-        rows.append(
-            {
-                "iteration": k,
-                "max_change": float(np.abs(result.history[k] - result.history[k - 1]).max()),
-                "start_value": float(result.history[k][model.start_state]),
-                "cycle_length": planning.policy_cycle(model, policy_k).length,
-            }
-        )
-    runs.write_rows_csv(os.path.join(run_dir, "progress.csv"), rows)
+    runs.write_rows_csv(
+        os.path.join(run_dir, "progress.csv"), _planner_progress(model, result.history, gamma)
+    )
     runs.write_matrix_csv(os.path.join(run_dir, "values.csv"), _values_table(model, result.values))
     runs.save_npy(os.path.join(run_dir, "values_history.npy"), np.array(result.history))
     runs.write_matrix_csv(
@@ -235,22 +125,52 @@ def run_planner(run_dir: str, settings: dict, model: models.TabularModel) -> dic
     return summary
 
 
-def run_online_on_model(run_dir: str, settings: dict, model: models.TabularModel) -> dict:
-    """A model-free learner on a `ModelEnvironment` sampling the model."""
-    seed = settings["seed"]
-    rng = np.random.RandomState(seed)
+def _planner_progress(model: models.TabularModel, history: list, gamma: float) -> list[dict]:
+    """One progress row per iteration: value change, start value, greedy cycle length."""
+    rows = []
+    for k in range(1, len(history)):
+        policy_k = planning.greedy_policy(model, history[k], gamma)
+        rows.append(
+            {
+                "iteration": k,
+                "max_change": float(np.abs(history[k] - history[k - 1]).max()),
+                "start_value": float(history[k][model.start_state]),
+                "cycle_length": planning.policy_cycle(model, policy_k).length,
+            }
+        )
+    return rows
+
+
+# ---------------------------------------------------------------------------------------
+# A model-free learner sampling a complete model.
+
+
+def run_online_on_model(
+    run_dir: str, settings: TabularSettings, model: models.TabularModel
+) -> dict:
+    """A model-free learner on a `ModelEnvironment` sampling the model.
+
+    Args:
+      run_dir: The run directory.
+      settings: The run's settings (`algo` is a learner).
+      model: The model the environment samples.
+
+    Returns:
+      The summary entries: steps, return and the greedy cycle.
+    """
+    seed = settings.seed
     env = model_env.ModelEnvironment(model, random=np.random.RandomState(seed + 1_000_003))
     learner = make_learner(
         settings,
         model.n_states,
         model.n_actions,
-        rng,
+        np.random.RandomState(seed),
         allowed=model.allowed,
         successor=model.intended_successor,
         tie_order=model.tie_order,
     )
     schedule = exploration.EpsilonSchedule.parse(default_epsilon(settings))
-    result = run_online(env, learner, model_env.state_of, settings["steps"], schedule)
+    result = run_online(env, learner, model_env.state_of, settings.steps, schedule)
     policy = np.array([learner.greedy(s) for s in range(model.n_states)])
     runs.write_rows_csv(
         os.path.join(run_dir, "progress.csv"),
@@ -270,9 +190,13 @@ def run_online_on_model(run_dir: str, settings: dict, model: models.TabularModel
     runs.save_npy(
         os.path.join(run_dir, "table.npy"), learner.v if learner.learns == "V" else learner.q
     )
-    summary = {"steps": settings["steps"], "return": float(result.rewards.sum())}
+    summary = {"steps": settings.steps, "return": float(result.rewards.sum())}
     summary.update(_cycle_summary(model, policy))
     return summary
+
+
+# ---------------------------------------------------------------------------------------
+# Real-time learning on the MuJoCo crawler (thesis Sec. 4.1.4).
 
 
 def learned_reward_table(
@@ -286,7 +210,7 @@ def learned_reward_table(
     return table
 
 
-def run_crawler(run_dir: str, settings: dict) -> dict:
+def run_crawler(run_dir: str, settings: TabularSettings) -> dict:
     """Online learning on `crawler_walk` (thesis Sec. 4.1.4 "real-time learning").
 
     Every algorithm acts in the MuJoCo crawler for `steps` moves; value and policy
@@ -294,43 +218,48 @@ def run_crawler(run_dir: str, settings: dict) -> dict:
     `explore_moves` = N the first N moves are random (ε = 1; the study's approach 1b).
     Then the greedy policy is frozen and run for `eval_moves` moves: its displacement is the
     figure of merit; its cycle is read from the grid model from cell (0, 0).
+
+    Args:
+      run_dir: The run directory.
+      settings: The run's settings (`task` is a crawler task).
+
+    Returns:
+      The summary entries (cycle, displacement, RMS error of the values, ...).
     """
     env, grid, to_state = _crawler_env(settings)
     learner, schedule, result, values = _learn_online(env, grid, to_state, settings)
     # Freeze and evaluate the greedy policy from where learning ended.
     policy = np.array([learner.greedy(s) for s in range(grid.n_states)])
-    displacement = _run_policy(env, learner, to_state, settings["eval_moves"])
+    displacement = _run_policy(env, learner, to_state, settings.eval_moves)
     rewards = learned_reward_table(result.states, result.actions, result.rewards, grid)
     learned = models.grid_model(rewards, name="crawler_learned")
-    reference = planning.value_iteration(learned, settings["gamma"], tol=1e-10).values
+    reference = planning.value_iteration(learned, settings.gamma, tol=1e-10).values
     rms = np.sqrt(np.mean((values - reference) ** 2, axis=1))
     _write_crawler_files(run_dir, result, schedule, rms, rewards, values, learner)
     cycle = planning.policy_cycle(learned, policy)  # its reward: the learned move rewards
     return {
-        "moves": settings["steps"],
-        "eval_moves": settings["eval_moves"],
+        "moves": settings.steps,
+        "eval_moves": settings.eval_moves,
         "cycle": [list(grid.label(s)) for s in cycle.states],
         "cycle_length": cycle.length,
         "cycle_joints": _cycle_joints(grid, cycle.states),
         "cycle_learned_reward_m": cycle.reward,
         "displacement_m": displacement,
-        "displacement_per_move_m": displacement / max(1, settings["eval_moves"]),
+        "displacement_per_move_m": displacement / max(1, settings.eval_moves),
         "learning_displacement_m": float(result.rewards.sum()),
         "final_rms": float(rms[-1]),
         "transitions_measured": len(rewards),
     }
 
 
-def _crawler_env(settings: dict):
+def _crawler_env(settings: TabularSettings):
     """The crawler environment, its grid model, and the observation → state map."""
-    from cpg_suite import crawler
-
     env = cpg_suite.load(
         "crawler_walk",
         task_kwargs={
-            "random": settings["seed"],
+            "random": settings.seed,
             "time_limit": float("inf"),
-            "stochastic": settings["stochastic"],
+            "stochastic": settings.stochastic,
         },
     )
 
@@ -341,30 +270,30 @@ def _crawler_env(settings: dict):
     return env, models.grid_model({}, name="crawler_grid"), to_state
 
 
-def _learn_online(env, grid, to_state, settings: dict):
+def _learn_online(env, grid, to_state, settings: TabularSettings):
     """Learns for `steps` moves; returns the learner, ε schedule, trajectory and values."""
     learner = make_learner(
         settings,
         grid.n_states,
         grid.n_actions,
-        np.random.RandomState(settings["seed"]),
+        np.random.RandomState(settings.seed),
         allowed=grid.allowed,
         successor=grid.intended_successor,
         tie_order=grid.tie_order,
     )
     schedule = exploration.EpsilonSchedule.parse(default_epsilon(settings))
-    if settings["explore_moves"] > 0:
-        schedule = _ExploreFirst(settings["explore_moves"], schedule)
+    if settings.explore_moves > 0:
+        schedule = _ExploreFirst(settings.explore_moves, schedule)
     history = []
     result = run_online(
         env,
         learner,
         to_state,
-        settings["steps"],
+        settings.steps,
         schedule,
         on_step=lambda: history.append(learner.state_values()),
     )
-    values = np.array([learner.state_values()] + history)[: settings["steps"] + 1]
+    values = np.array([learner.state_values()] + history)[: settings.steps + 1]
     return learner, schedule, result, values
 
 
@@ -391,7 +320,7 @@ def _write_crawler_files(run_dir, result, schedule, rms, rewards, values, learne
     )
     runs.write_json(os.path.join(run_dir, "learned_rewards.json"), {"rewards": keyed})
     runs.save_npy(os.path.join(run_dir, "values_history.npy"), values)
-    grid_values = learner.state_values().reshape(GRID, GRID)
+    grid_values = learner.state_values().reshape(crawler.GRID, crawler.GRID)
     runs.write_matrix_csv(os.path.join(run_dir, "values.csv"), grid_values)
 
 
@@ -423,21 +352,40 @@ def _run_policy(env, learner, to_state, moves: int) -> float:
     return total
 
 
-def run_online_on_task(run_dir: str, settings: dict) -> dict:
-    """A learner on a discrete cpg_suite task (the pole through a discretizer)."""
-    if settings["task"].startswith("crawler"):
+# ---------------------------------------------------------------------------------------
+# Online learning on the pole (thesis Alg. 4.2).
+
+
+def run_online_on_task(run_dir: str, settings: TabularSettings) -> dict:
+    """A learner on a discrete cpg_suite task: the crawler, or the pole through a discretizer.
+
+    Args:
+      run_dir: The run directory.
+      settings: The run's settings (`task` is given).
+
+    Returns:
+      The summary entries of `run_crawler` or `run_pole`.
+    """
+    if settings.on_crawler:
         return run_crawler(run_dir, settings)
-    seed = settings["seed"]
-    task_kwargs = {"random": seed, "time_limit": float("inf")}
-    if settings["task"].startswith("pole"):
-        task_kwargs.update(num_actions=settings["actions"], reward=settings["reward"])
-        if settings["force"] is not None:
-            task_kwargs["force"] = settings["force"]
-    env = cpg_suite.load(settings["task"], task_kwargs=task_kwargs)
-    spec = env.action_spec()
-    to_state = discretize.pole_discretizer(discretize.parse_bins(settings["bins"]))
+    return run_pole(run_dir, settings)
+
+
+def run_pole(run_dir: str, settings: TabularSettings) -> dict:
+    """Online learning on a pole task; writes one progress row per episode and the arrays.
+
+    Args:
+      run_dir: The run directory.
+      settings: The run's settings (`task` is a pole task).
+
+    Returns:
+      The balance metrics of `balance_metrics` (last 5000 steps), physics steps, return.
+    """
+    env = _pole_env(settings)
+    n_actions = env.action_spec().num_values
+    to_state = discretize.pole_discretizer(discretize.parse_bins(settings.bins))
     learner = make_learner(
-        settings, to_state.n_states, spec.num_values, np.random.RandomState(seed)
+        settings, to_state.n_states, n_actions, np.random.RandomState(settings.seed)
     )
     schedule = exploration.EpsilonSchedule.parse(default_epsilon(settings))
     fields = ["episode", "start_step", "end_step", "length", "fell", "return"]
@@ -446,7 +394,7 @@ def run_online_on_task(run_dir: str, settings: dict) -> dict:
             env,
             learner,
             to_state,
-            settings["steps"],
+            settings.steps,
             schedule,
             record=("angle", "angular_velocity"),
             on_episode=lambda ep: progress.append(
@@ -460,19 +408,36 @@ def run_online_on_task(run_dir: str, settings: dict) -> dict:
                 }
             ),
         )
-    runs.save_npy(
-        os.path.join(run_dir, "angles.npy"), result.observations["angle"].astype(np.float32)
-    )
-    runs.save_npy(os.path.join(run_dir, "actions.npy"), result.actions.astype(np.int8))
-    runs.save_npy(
-        os.path.join(run_dir, "q_table.npy"), learner.q.reshape(to_state.bins + (spec.num_values,))
-    )
+    _write_pole_files(run_dir, result, learner.q.reshape(to_state.bins + (n_actions,)))
     summary = balance_metrics(result, last=5000)
-    summary["physics_steps"] = settings["steps"] * int(
+    summary["physics_steps"] = settings.steps * int(
         round(env.control_timestep() / env.physics.model.opt.timestep)
     )
     summary["return"] = float(result.rewards.sum())
     return summary
+
+
+def _pole_env(settings: TabularSettings):
+    """The pole environment without a time limit, with the settings' actions, reward, force."""
+    task_kwargs = {"random": settings.seed, "time_limit": float("inf")}
+    if settings.task.startswith("pole"):
+        task_kwargs.update(num_actions=settings.actions, reward=settings.reward)
+        if settings.force is not None:
+            task_kwargs["force"] = settings.force
+    return cpg_suite.load(settings.task, task_kwargs=task_kwargs)
+
+
+def _write_pole_files(run_dir: str, result: OnlineResult, q_table: np.ndarray) -> None:
+    """angles.npy (float32), actions.npy (int8), q_table.npy (bins × actions)."""
+    runs.save_npy(
+        os.path.join(run_dir, "angles.npy"), result.observations["angle"].astype(np.float32)
+    )
+    runs.save_npy(os.path.join(run_dir, "actions.npy"), result.actions.astype(np.int8))
+    runs.save_npy(os.path.join(run_dir, "q_table.npy"), q_table)
+
+
+# ---------------------------------------------------------------------------------------
+# One run, from settings to run directory.
 
 
 def execute(settings: TabularSettings | dict, resume: bool = False) -> tuple[str, dict]:
@@ -494,42 +459,58 @@ def execute(settings: TabularSettings | dict, resume: bool = False) -> tuple[str
     """
     if isinstance(settings, dict):
         settings = TabularSettings(**settings)
-    settings = dataclasses.asdict(settings)
-    task = settings["task"] or settings["model"]
-    run_name = settings["run_name"] or f"seed{settings['seed']}"
     summary_path = os.path.join(
-        settings["output_dir"], settings["algo"], task, run_name, "summary.json"
+        settings.output_dir,
+        settings.algo,
+        settings.target,
+        settings.run_name_or_default(),
+        "summary.json",
     )
     if resume and os.path.exists(summary_path):
         return os.path.dirname(summary_path), runs.read_json(summary_path)
     run_dir = runs.run_directory(
-        settings["output_dir"],
-        settings["algo"],
-        task,
-        run_name,
-        overwrite=settings["overwrite"] or resume,
+        settings.output_dir,
+        settings.algo,
+        settings.target,
+        settings.run_name_or_default(),
+        overwrite=settings.overwrite or resume,
     )
-    flags_of_run = {k: v for k, v in settings.items() if k not in ("overwrite",)}
-    runs.write_config(
-        run_dir,
-        settings,
-        runs.command_line("baselines.tabular", {**flags_of_run, "run_name": run_name}),
-    )
+    runs.write_config(run_dir, settings, command=rerun_command(settings))
     start = time.perf_counter()
-    if settings["model"] is not None:
-        model = models.MODELS[settings["model"]](slip=settings["slip"])
-        if settings["algo"] in PLANNERS:
-            summary = run_planner(run_dir, settings, model)
-        else:
-            summary = run_online_on_model(run_dir, settings, model)
-    else:
-        summary = run_online_on_task(run_dir, settings)
     summary = {
-        "method": settings["algo"],
-        "task": task,
-        "seed": settings["seed"],
-        **summary,
+        "method": settings.algo,
+        "task": settings.target,
+        "seed": settings.seed,
+        **_run(run_dir, settings),
         "wall_s": time.perf_counter() - start,
     }
     runs.write_json(os.path.join(run_dir, "summary.json"), summary)
     return run_dir, summary
+
+
+def _run(run_dir: str, settings: TabularSettings) -> dict:
+    """Dispatches to the planner or learner the settings name; returns their summary."""
+    if settings.model is None:
+        return run_online_on_task(run_dir, settings)
+    model = models.MODELS[settings.model](slip=settings.slip)
+    if settings.algo in PLANNERS:
+        return run_planner(run_dir, settings, model)
+    return run_online_on_model(run_dir, settings, model)
+
+
+def rerun_command(settings: TabularSettings) -> str:
+    """The `python -m baselines.tabular ...` line that re-runs exactly this run.
+
+    Every setting is spelled out (None values left out) with the run name made explicit;
+    `overwrite` is left out: it says how to treat an existing directory, not what to run.
+
+    Args:
+      settings: The run's settings.
+
+    Returns:
+      The command line (see `runs.command_line`).
+    """
+    flags_of_run = dataclasses.asdict(settings)
+    del flags_of_run["overwrite"]
+    flags_of_run["run_name"] = settings.run_name_or_default()
+    return runs.command_line("baselines.tabular", flags_of_run)
