@@ -195,9 +195,6 @@ def run_cem(
     Raises:
       runs.RunDirectoryExists, optimize.CheckpointError.
     """
-    options = options or runs.RunOptions()
-    if not options.run_name:
-        options = dataclasses.replace(options, run_name=default_run_name(settings))
     optimizer = CEM(
         cpg.amplitudes_from("hand_tuned"),
         settings.population,
@@ -205,7 +202,8 @@ def run_cem(
         settings.noise,
         settings.seed,
     )
-    return optimize.run_optimizer("cem", optimizer, settings, options, log)
+    options = options or runs.RunOptions()
+    return optimize.run(optimizer, settings, options, "cem", log, default_run_name(settings))
 
 
 def define_flags() -> None:

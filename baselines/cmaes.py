@@ -196,13 +196,11 @@ def run_cmaes(
     Raises:
       runs.RunDirectoryExists, optimize.CheckpointError.
     """
-    options = options or runs.RunOptions()
-    if not options.run_name:
-        options = dataclasses.replace(options, run_name=default_run_name(settings))
     optimizer = CMAES(
         cpg.amplitudes_from("hand_tuned"), settings.population, settings.sigma0, settings.seed
     )
-    return optimize.run_optimizer("cmaes", optimizer, settings, options, log)
+    options = options or runs.RunOptions()
+    return optimize.run(optimizer, settings, options, "cmaes", log, default_run_name(settings))
 
 
 def define_flags() -> None:

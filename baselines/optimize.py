@@ -615,6 +615,7 @@ def run(
     options: runs.RunOptions,
     method: str,
     log: Callable[[str], None] = progress.write,
+    default_name: str | None = None,
 ) -> tuple[str, dict]:
     """Runs any optimizer through the benchmark's loop, run files, selection and scoring.
 
@@ -624,6 +625,7 @@ def run(
       options: Output directory, run name (default `<method>_seed<seed>`), threads, resume.
       method: The method's name: the run directory's second level and its leaderboard row.
       log: Receives progress lines.
+      default_name: The run name when `options` gives none (default `<method>_seed<seed>`).
 
     Returns:
       `(run_dir, summary)`; the summary holds the test score card.
@@ -632,7 +634,8 @@ def run(
       runs.RunDirectoryExists, CheckpointError.
     """
     if not options.run_name:
-        options = dataclasses.replace(options, run_name=f"{method}_seed{settings.seed}")
+        name = default_name or f"{method}_seed{settings.seed}"
+        options = dataclasses.replace(options, run_name=name)
     return run_optimizer(method, optimizer, settings, options, log)
 
 
