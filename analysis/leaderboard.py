@@ -63,11 +63,42 @@ LEADERBOARD_FIELDS = [
 CLAIM_FIELDS = ["claim_id", "statement", "evidence", "holds"]
 
 
+PRESET_METHOD = "preset"  # an untrained open-loop gait's score card (`baselines.score --out`)
+
+
+def _add_score_card(dirpath: str, found: list[dict], skipped: list[str]) -> None:
+    """A `score.json` written by `baselines.score --out=DIR` becomes a leaderboard row named
+    after DIR, with no training task and no simulation budget."""
+    path = os.path.join(dirpath, "score.json")
+    try:
+        with open(path, encoding="utf-8") as f:
+            card = json.load(f)
+        if not isinstance(card, dict) or not isinstance(card.get("tiers"), dict):
+            raise ValueError("not a score card")
+    except (OSError, ValueError) as e:
+        skipped.append(f"{path}: {type(e).__name__}")
+        return
+    summary = {"test": card, "evaluations": 0, "sim_steps": 0, "best_distance_m": None}
+    name = os.path.basename(os.path.normpath(dirpath))
+    found.append(
+        {
+            "method": PRESET_METHOD,
+            "task": "none",
+            "config": name,
+            "seed": None,
+            "summary": summary,
+            "dir": dirpath,
+        }
+    )
+
+
 def find_runs(root: str) -> tuple[list[dict], list[str]]:
     """Every readable run: method, task, config, seed, summary; and the skipped paths."""
     found, skipped = [], []
     for dirpath, _, filenames in os.walk(root):
         if "summary.json" not in filenames:
+            if "score.json" in filenames:
+                _add_score_card(dirpath, found, skipped)
             continue
         path = os.path.join(dirpath, "summary.json")
         parts = os.path.normpath(dirpath).split(os.sep)
@@ -237,7 +268,8 @@ def darwin_rows(found: list[dict]) -> list[dict]:
     """
     groups = defaultdict(list)
     for run in found:
-        if run["task"].startswith("darwin_walk") and isinstance(run["summary"].get("test"), dict):
+        darwin = run["task"].startswith("darwin_walk") or run["method"] == PRESET_METHOD
+        if darwin and isinstance(run["summary"].get("test"), dict):
             groups[(run["task"], run["method"], run["config"])].append(run["summary"])
     rows = [_darwin_row(key, summaries) for key, summaries in groups.items()]
     rows.sort(key=lambda r: -r["test_score_m"])

@@ -97,34 +97,44 @@ def cem_rounds(found: list[dict], out: str) -> str | None:
 
 
 def score_vs_budget(found: list[dict], out: str) -> str | None:
-    """Validation score of the mean against the simulation budget, one line per run."""
-    curves = []
-    for run in sorted(found, key=lambda r: (r["task"], r["method"], r["config"], r["seed"] or 0)):
+    """Validation score of the mean against the simulation budget, one line per
+    configuration (the mean over its seeds, round by round); the small Table 6.3 settings
+    (fewer than 2,000 training trials) in thin grey lines."""
+    groups = defaultdict(list)
+    for run in found:
         if not run["task"].startswith("darwin_walk"):
             continue
-        rows = [
-            r for r in _read_csv(os.path.join(run["dir"], "progress.csv")) if r.get("validation_m")
-        ]
+        path = os.path.join(run["dir"], "progress.csv")
+        rows = [r for r in _read_csv(path) if r.get("validation_m")]
         if rows:
-            steps = [float(r["sim_steps"]) / 1e6 for r in rows]
-            label = (
-                f"{run['method']} {run['config']} ({run['task'].replace('darwin_walk', 'walk')})"
-            )
-            curves.append((label, steps, [float(r["validation_m"]) for r in rows]))
-    if not curves:
+            trials = run["summary"].get("evaluations") or 0
+            groups[(run["task"], run["method"], run["config"])].append((rows, trials))
+    if not groups:
         return None
     plt = _plt()
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    for label, steps, values in curves:
+    for (task, method, config), seeds in sorted(groups.items()):
+        n = min(len(rows) for rows, _ in seeds)
+        steps = np.mean([[float(r["sim_steps"]) / 1e6 for r in rows[:n]] for rows, _ in seeds], 0)
+        values = np.mean([[float(r["validation_m"]) for r in rows[:n]] for rows, _ in seeds], 0)
+        if min(trials for _, trials in seeds) < 2000:
+            ax.plot(steps, values, color="0.75", linewidth=0.8)
+            continue
+        label = f"{method} {config} ({task.replace('darwin_walk', 'walk')}, {len(seeds)} seeds)"
         ax.plot(steps, values, marker="o", markersize=3, label=label)
     ax.set_xlabel("training budget (million physics steps)")
     ax.set_ylabel("validation success-weighted distance (m)")
-    ax.legend(fontsize=7)
+    ax.set_title("mean over seeds; grey: Table 6.3 settings with K < 50", fontsize=9)
+    if ax.get_legend_handles_labels()[1]:
+        ax.legend(fontsize=7)
     return _save(plt, fig, out, "score_vs_budget.png")
 
 
 def tier_scores(darwin: list[dict], out: str) -> str | None:
-    """Test score per tier with its interval, one group of bars per scored configuration."""
+    """Test score per tier with its interval, one group of bars per scored configuration
+    (presets and runs of at least 2,000 training trials)."""
+    # The untrained presets and the configurations with the study's largest budget.
+    darwin = [r for r in darwin if r["method"] == "preset" or (r["budget_trials"] or 0) >= 2000]
     if not darwin:
         return None
     plt = _plt()

@@ -325,7 +325,11 @@ def round_line(row: dict, trials: int) -> str:
 def _finish(
     run_dir: str, state: _RunState, optimizer: Optimizer, final: BatchResult, wall_s: float
 ) -> dict:
-    """Writes best_params.json, mean_params.json and summary.json; returns the summary."""
+    """Writes best_params.json and mean_params.json; returns the training summary.
+
+    summary.json is written only once the selection and the test card are in it: it marks
+    a finished run, so a run killed while scoring its test card is completed on resume.
+    """
     totals, best = state.totals, state.best
     if "params" not in best:
         raise RuntimeError("every trial of the run failed (NaN or infinite cost)")
@@ -355,7 +359,6 @@ def _finish(
             "fell": summary["final_mean_fell"],
         },
     )
-    runs.write_json(os.path.join(run_dir, "summary.json"), summary)
     return summary
 
 

@@ -54,3 +54,26 @@ def test_pycma_runs_resumes_and_reaches_the_leaderboard(tmp_path):
     assert not skipped
     rows = leaderboard.darwin_rows(found)
     assert [r["method"] for r in rows] == ["pycma"]
+
+
+def test_run_killed_while_scoring_its_test_card_is_finished_on_resume(tmp_path, monkeypatch):
+    """summary.json marks a finished run: a kill during the test scoring leaves none, and
+    --resume completes the run with the summary of an undisturbed one."""
+    _, full = optimize.run(
+        _pycma(2), SETTINGS, runs.RunOptions(output_dir=str(tmp_path / "a")), "pycma", log=str
+    )
+    options = runs.RunOptions(output_dir=str(tmp_path / "b"))
+
+    def killed(*args, **kwargs):
+        raise Killed
+
+    with monkeypatch.context() as patch:
+        patch.setattr(optimize.score, "score_gait", killed)
+        with pytest.raises(Killed):
+            optimize.run(_pycma(2), SETTINGS, options, "pycma", log=str)
+    run_dir = tmp_path / "b" / "pycma" / "darwin_walk" / "pycma_seed0"
+    assert (run_dir / "checkpoint.json").exists() and not (run_dir / "summary.json").exists()
+    np.random.seed(5)
+    resume = dataclasses.replace(options, resume=True)
+    _, resumed = optimize.run(_pycma(2), SETTINGS, resume, "pycma", log=str)
+    assert "test" in resumed and _without_wall(resumed) == _without_wall(full)

@@ -7,6 +7,7 @@ import sys
 import numpy as np
 import pytest
 
+from analysis import leaderboard
 from baselines import protocol, score
 from baselines.gait import evaluate_gait
 from cpg_suite import cpg
@@ -71,18 +72,24 @@ def _cli(*args):
     )
 
 
-def test_cli_writes_score_json(tmp_path):
+def test_cli_writes_score_json_that_the_leaderboard_ranks(tmp_path):
+    out_dir = tmp_path / "scores" / "hand_tuned"
     out = _cli(
         "--params=hand_tuned",
         "--seeds=2",
         "--steps=100",
         "--tiers=darwin_walk",
-        f"--out={tmp_path}",
+        f"--out={out_dir}",
     )
     assert out.returncode == 0, out.stderr
-    card = json.loads((tmp_path / "score.json").read_text())
+    card = json.loads((out_dir / "score.json").read_text())
     assert set(card["tiers"]) == {"darwin_walk"} and card["seeds"] == [2_000_000, 2_000_001]
     assert "darwin_walk" in out.stdout
+    found, skipped = leaderboard.find_runs(str(tmp_path))
+    (row,) = leaderboard.darwin_rows(found)
+    assert not skipped and (row["method"], row["config"]) == ("preset", "hand_tuned")
+    assert row["budget_sim_steps"] == 0 and row["in_sample_best_m"] == ""
+    assert row["test_score_m"] == card["all"]["success_weighted_distance_m"]["mean"]
 
 
 @pytest.mark.parametrize(
