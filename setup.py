@@ -62,6 +62,8 @@ setup(
             # A real PyTorch agent (Stable-Baselines3 PPO) beside cpg_suite in one process.
             "torch>=2.3,<3",
             "stable-baselines3>=2.3,<3",
+            # The Ray backend on a real local Ray instance.
+            "ray>=2.9,<3",
         ],
         "plots": [
             "matplotlib>=3.7,<4",
@@ -72,6 +74,8 @@ setup(
         "gym": ["gymnasium>=1.0,<2", "shimmy[dm-control]>=2.0,<3"],
         # pycma: checks our CMA-ES against it and runs as a bring-your-own optimizer.
         "optim": ["cma>=3.3,<5"],
+        # The Ray backend: evaluation and grids of runs on a cluster (tested with 2.60).
+        "cluster": ["ray>=2.9,<3"],
         # Deep RL agents (PyTorch; the wheels bring CUDA libraries of several GB).
         "rl": [
             "gymnasium>=1.0,<2",

@@ -94,6 +94,20 @@ class BatchResult:
         return self.fall_step > 0
 
 
+def check_amplitudes(amplitudes) -> np.ndarray:
+    """(K, 11) float64 amplitudes from a (K, 11) or (11,) array.
+
+    Raises:
+      ValueError: On another shape or a non-finite value.
+    """
+    amps = np.atleast_2d(np.asarray(amplitudes, dtype=np.float64))
+    if amps.ndim != 2 or amps.shape[1] != cpg.N_AMPLITUDES or not np.all(np.isfinite(amps)):
+        raise ValueError(
+            f"amplitudes must be finite with {cpg.N_AMPLITUDES} columns, got shape {amps.shape}"
+        )
+    return amps
+
+
 class BatchEvaluator:
     """Evaluates batches of CPG amplitude vectors on a DARwIn-OP task."""
 
@@ -325,11 +339,7 @@ class BatchEvaluator:
         Returns:
           A `BatchResult` with (K, len(seeds)) arrays.
         """
-        amps = np.atleast_2d(np.asarray(amplitudes, dtype=np.float64))
-        if amps.shape[1] != cpg.N_AMPLITUDES or not np.all(np.isfinite(amps)):
-            raise ValueError(
-                f"amplitudes must be finite with {cpg.N_AMPLITUDES} columns, got shape {amps.shape}"
-            )
+        amps = check_amplitudes(amplitudes)
         seeds = [int(s) for s in np.atleast_1d(seeds)]
         ctrl = self.controls(amps)
         jobs = [(k, j) for k in range(len(amps)) for j in range(len(seeds))]

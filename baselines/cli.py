@@ -47,9 +47,11 @@ def run(main: Callable[[list[str]], None]) -> None:
     def wrapped(argv: list[str]) -> None:
         if len(argv) > 1:
             fail(f"unexpected arguments {argv[1:]}; all options are --flags")
+        from baselines.ray_backend import ClusterUnreachable
+
         try:
             main(argv)
-        except UsageError as e:
+        except (UsageError, ClusterUnreachable) as e:
             fail(str(e))
 
     app.run(wrapped, flags_parser=_parse_flags)

@@ -27,7 +27,7 @@ from typing import Protocol
 import numpy as np
 from absl import flags
 
-from baselines import cli, progress, protocol, runs, score
+from baselines import cli, progress, protocol, ray_backend, runs, score
 from baselines.batch_eval import BatchEvaluator, BatchResult
 from cpg_suite import cpg
 
@@ -153,6 +153,8 @@ def define_flags() -> None:
     flags.DEFINE_string("run_name", o.run_name, "Run directory name (default from settings).")
     flags.DEFINE_bool("resume", o.resume, "Continue runs from their checkpoints.")
     flags.DEFINE_bool("overwrite", o.overwrite, "Replace existing run directories.")
+    flags.DEFINE_enum("backend", o.backend, ["local", "ray"], "Evaluator backend (same results).")
+    flags.DEFINE_string("ray_address", o.ray_address, "Ray cluster: host:port, or auto.")
 
 
 PROGRESS_FIELDS = [
@@ -416,6 +418,8 @@ def run_rounds(
     *,
     resume: bool = False,
     threads: int = 2,
+    backend: str = "local",
+    ray_address: str | None = None,
     log: Callable[[str], None] = progress.write,
 ) -> dict:
     """Runs the optimizer for `settings.rounds` rounds and writes the run files.
@@ -433,6 +437,7 @@ def run_rounds(
       settings: The run's settings; all of them must match to resume.
       resume: Continue from `checkpoint.json` if present.
       threads: Threads of the test scoring.
+      backend, ray_address: Evaluator backend of the test scoring (`runs.RunOptions`).
       log: Receives one line per round.
 
     Returns:
@@ -462,12 +467,13 @@ def run_rounds(
     start = time.perf_counter()
     final = evaluator.evaluate(optimizer.mean, round_seeds(settings, settings.rounds + 1))
     summary = _finish(run_dir, state, optimizer, final, time.perf_counter() - start)
-    summary.update(_select_and_test(run_dir, state, optimizer, evaluator, settings, threads, log))
+    scoring = {"threads": threads, "backend": backend, "ray_address": ray_address}
+    summary.update(_select_and_test(run_dir, state, optimizer, evaluator, settings, scoring, log))
     runs.write_json(os.path.join(run_dir, "summary.json"), summary)
     return summary
 
 
-def _select_and_test(run_dir, state, optimizer, evaluator, settings, threads, log) -> dict:
+def _select_and_test(run_dir, state, optimizer, evaluator, settings, scoring, log) -> dict:
     """Selects the reported gait on validation seeds and scores it on the test tiers."""
     names = ["final_mean"] + [f"in_sample_{i + 1}" for i in range(len(state.top))]
     candidates = np.array([optimizer.mean] + [e["params"] for e in state.top])
@@ -490,9 +496,7 @@ def _select_and_test(run_dir, state, optimizer, evaluator, settings, threads, lo
     if settings.test_seeds:
         card = score.score_gait(
             candidates[k],
-            score.ScoreSettings(
-                seeds=settings.test_seeds, steps=settings.trial_steps, threads=threads
-            ),
+            score.ScoreSettings(seeds=settings.test_seeds, steps=settings.trial_steps, **scoring),
         )
         out["test"] = {k2: card[k2] for k2 in ("tiers", "all", "scoring_sim_steps")}
         log(f"selected gait: {names[k]} (validation {values[k]:+.3f} m); test score card:")
@@ -523,9 +527,20 @@ def run_optimizer(
     Raises:
       ValueError: If `options.run_name` is not set.
       runs.RunDirectoryExists, CheckpointError.
+      ray_backend.ClusterUnreachable: With backend "ray", if no cluster answers.
     """
     if not options.run_name:
         raise ValueError("run_optimizer needs options.run_name")
+    # Reach the cluster before anything is written (ClusterUnreachable leaves no run files).
+    owns_ray = options.backend == "ray" and ray_backend.connect(options.ray_address)
+    try:
+        return _run_in_directory(method, optimizer, settings, options, log)
+    finally:
+        if owns_ray:
+            ray_backend.disconnect()
+
+
+def _run_in_directory(method, optimizer, settings, options, log) -> tuple[str, dict]:
     run_dir = runs.run_directory(
         options.output_dir,
         method,
@@ -547,7 +562,9 @@ def run_optimizer(
         builtin = method in ("cem", "cmaes")  # a user's optimizer runs from their own code
         command = runs.command_line(f"baselines.{method}", flags_of_run) if builtin else None
         runs.write_config(run_dir, settings, command)
-    with BatchEvaluator(settings.task, settings.trial_steps, options.threads) as evaluator:
+    with ray_backend.open_evaluator(
+        settings.task, settings.trial_steps, options.threads, options.backend, options.ray_address
+    ) as evaluator:
         summary = run_rounds(
             optimizer,
             evaluator,
@@ -555,6 +572,8 @@ def run_optimizer(
             settings,
             resume=options.resume,
             threads=options.threads,
+            backend=options.backend,
+            ray_address=options.ray_address,
             log=log,
         )
     return run_dir, summary

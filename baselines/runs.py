@@ -32,6 +32,10 @@ class RunOptions:
       threads: Evaluator threads (results are identical for any number).
       resume: Continue runs from their checkpoints (a finished run is returned as is).
       overwrite: Replace existing run directories.
+      backend: Where candidates are evaluated: "local" threads or "ray" actors (results
+        are identical).
+      ray_address: The Ray cluster for backend "ray" (host:port, "auto", or None for a
+        private local instance).
     """
 
     output_dir: str = "runs"
@@ -39,8 +43,12 @@ class RunOptions:
     threads: int = 2
     resume: bool = False
     overwrite: bool = False
+    backend: str = "local"
+    ray_address: str | None = None
 
     def __post_init__(self):
+        if self.backend not in ("local", "ray"):
+            raise ValueError(f"--backend must be local or ray, got {self.backend!r}")
         if self.threads < 1:
             raise ValueError(f"--threads must be ≥ 1, got {self.threads}")
         if self.resume and self.overwrite:

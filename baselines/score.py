@@ -26,9 +26,9 @@ from absl import flags
 from scipy import stats
 
 import cpg_suite
-from baselines import cli, gait, progress, protocol, runs
+from baselines import cli, gait, progress, protocol, ray_backend, runs
 from baselines import quality as gait_quality
-from baselines.batch_eval import BatchEvaluator, clear_invalid_state_warnings, invalid_state
+from baselines.batch_eval import clear_invalid_state_warnings, invalid_state
 from cpg_suite import cpg
 
 _BOOTSTRAP_RESAMPLES = 2000
@@ -44,12 +44,16 @@ class ScoreSettings:
       seeds: How many of the 50 test seeds (all for a reported score).
       steps: Control steps per trial (1000 = 16 s).
       threads: Evaluator threads (results do not depend on it).
+      backend: "local" threads or "ray" actors (results do not depend on it).
+      ray_address: The Ray cluster for backend "ray" (host:port, "auto", or None).
     """
 
     tiers: tuple[str, ...] = protocol.TIERS
     seeds: int = len(protocol.TEST)
     steps: int = 1000
     threads: int = 2
+    backend: str = "local"
+    ray_address: str | None = None
 
     def __post_init__(self):
         tiers = tuple(self.tiers)
@@ -65,6 +69,10 @@ class ScoreSettings:
         )
         cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
         cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
+        cli.require(
+            self.backend in ray_backend.BACKENDS,
+            f"--backend must be one of {', '.join(ray_backend.BACKENDS)}, got {self.backend!r}",
+        )
 
 
 def _interval(values: np.ndarray, statistic) -> list[float]:
@@ -129,7 +137,12 @@ def _card(per_tier: dict, settings: ScoreSettings, budget: dict) -> dict:
         for f in gait_quality.FIELDS
     }
     return {
-        "settings": dataclasses.asdict(settings),
+        # Where it ran is not what it measured: the card is the same on either backend.
+        "settings": {
+            k: v
+            for k, v in dataclasses.asdict(settings).items()
+            if k not in ("backend", "ray_address")
+        },
         "seeds": protocol.held_out_seeds(settings.seeds),
         "tiers": {
             t: summarize(per_tier[t]["d"], per_tier[t]["f"], per_tier[t]["q"])
@@ -149,12 +162,26 @@ def score_gait(amplitudes: np.ndarray, settings: ScoreSettings | None = None) ->
 
     Returns:
       The card: per tier and pooled ("all") statistics, the seeds, the settings.
+
+    Raises:
+      ray_backend.ClusterUnreachable: With backend "ray", if no cluster answers.
     """
     settings = settings or ScoreSettings()
+    owns_ray = settings.backend == "ray" and ray_backend.connect(settings.ray_address)
+    try:
+        return _score_tiers(amplitudes, settings)
+    finally:
+        if owns_ray:
+            ray_backend.disconnect()
+
+
+def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> dict:
     seeds = protocol.held_out_seeds(settings.seeds)
     per_tier, sim_steps = {}, 0
     for tier in progress.track(settings.tiers, desc="tiers", unit="tier"):
-        with BatchEvaluator(tier, settings.steps, settings.threads) as evaluator:
+        with ray_backend.open_evaluator(
+            tier, settings.steps, settings.threads, settings.backend, settings.ray_address
+        ) as evaluator:
             result = evaluator.evaluate(amplitudes, seeds, quality=True)
         per_tier[tier] = {
             "d": result.distance_m[0],
@@ -333,6 +360,8 @@ def define_flags() -> None:
     flags.DEFINE_integer("seeds", d.seeds, "How many of the 50 test seeds.")
     flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")
     flags.DEFINE_integer("threads", d.threads, "Evaluator threads (results do not depend on it).")
+    flags.DEFINE_enum("backend", d.backend, list(ray_backend.BACKENDS), "Evaluator backend.")
+    flags.DEFINE_string("ray_address", d.ray_address, "Ray cluster (host:port or auto).")
     flags.DEFINE_string("out", None, "Directory for score.json (default: print only).")
 
 

@@ -1,0 +1,166 @@
+"""The Ray backend on a real local Ray instance: identical results, a killed worker, an
+unreachable cluster."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from baselines import cem, ray_backend, runs, score
+from baselines.batch_eval import BatchEvaluator
+from cpg_suite import cpg
+
+ray = pytest.importorskip("ray")
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, configure_logging=False)
+    yield
+    ray.shutdown()
+
+
+def _candidates(k=5):
+    rng = np.random.default_rng(0)
+    return cpg.amplitudes_from("hand_tuned") + rng.normal(0, 1.5, (k, cpg.N_AMPLITUDES))
+
+
+def _same(a, b):
+    assert np.array_equal(a.distance_m, b.distance_m)
+    assert np.array_equal(a.lateral_m, b.lateral_m)
+    assert np.array_equal(a.fall_step, b.fall_step) and a.sim_steps == b.sim_steps
+    if a.quality is not None:
+        assert all(np.array_equal(a.quality[f], b.quality[f], equal_nan=True) for f in a.quality)
+
+
+@pytest.mark.parametrize("workers, chunk", [(1, None), (2, 1), (2, 3)])
+def test_ray_evaluation_equals_local_for_any_chunk_and_workers(local_ray, workers, chunk):
+    amps, seeds = _candidates(), [0, 7, 1_000_003]
+    with BatchEvaluator("darwin_walk_push", 150, 2) as local:
+        expected = local.evaluate(amps, seeds, quality=True)
+        one_gait = local.evaluate(amps[0], list(range(5)))
+    with ray_backend.RayEvaluator("darwin_walk_push", 150, workers=workers, chunk=chunk) as remote:
+        _same(remote.evaluate(amps, seeds, quality=True), expected)
+        _same(remote.evaluate(amps[0], list(range(5))), one_gait)  # split along the seeds
+
+
+def _worker_pids(busy: bool) -> list[int]:
+    """Pids of this machine's evaluator actors (Ray titles them `ray::_Worker.<method>`
+    while they run a call, `ray::_Worker` when idle)."""
+    prefix = b"ray::_Worker.evaluate" if busy else b"ray::_Worker"
+    pids = []
+    for entry in os.listdir("/proc"):
+        try:
+            with open(f"/proc/{entry}/cmdline", "rb") as f:
+                if f.read().startswith(prefix):
+                    pids.append(int(entry))
+        except (OSError, ValueError):
+            continue
+    return pids
+
+
+class _Killer(threading.Thread):
+    """Kills the first actor process seen in the middle of an evaluation, once."""
+
+    def __init__(self):
+        super().__init__(daemon=True)
+        self.killed, self._done = None, threading.Event()
+
+    def run(self):
+        while not self._done.is_set() and self.killed is None:
+            for pid in _worker_pids(busy=True):
+                os.kill(pid, signal.SIGKILL)
+                self.killed = pid
+                return
+            time.sleep(0.01)
+
+    def stop(self):
+        self._done.set()
+        self.join()
+
+
+def test_a_worker_killed_mid_chunk_is_retried_with_the_same_numbers(local_ray):
+    amps = _candidates(4)
+    with BatchEvaluator("darwin_walk", 600, 1) as local:
+        expected = local.evaluate(amps, [0, 1, 2])
+    with ray_backend.RayEvaluator("darwin_walk", 600, workers=2, chunk=1) as remote:
+        pids = ray.get([actor.pid.remote() for actor in remote.actors])
+        killer = _Killer()
+        killer.start()
+        result = remote.evaluate(amps, [0, 1, 2])
+        killer.stop()
+        assert killer.killed in pids, "no worker was seen mid-evaluation"
+        _same(result, expected)  # the killed actor's chunks were retried on its restart
+        assert killer.killed not in ray.get([actor.pid.remote() for actor in remote.actors])
+        _same(remote.evaluate(amps, [0, 1, 2]), expected)
+
+
+def test_optimizer_run_on_ray_with_a_killed_worker_has_the_local_summary_and_card(
+    local_ray, tmp_path
+):
+    settings = cem.CEMSettings(
+        population=6, rounds=3, trial_steps=300, validation_seeds=2, test_seeds=2
+    )
+    summaries = []
+    for backend in ("local", "ray"):
+        options = runs.RunOptions(output_dir=str(tmp_path / backend), backend=backend, threads=1)
+        killer = _Killer()
+        if backend == "ray":
+            killer.start()
+        _, summary = cem.run_cem(settings, options, log=str)
+        if backend == "ray":
+            killer.stop()
+            assert killer.killed is not None, "no worker was seen mid-evaluation"
+        summaries.append({k: v for k, v in summary.items() if k != "wall_s"})
+    assert summaries[0] == summaries[1]
+    card = dict(seeds=3, steps=150, tiers=("darwin_walk_rough",))
+    local = score.score_gait(_candidates(1)[0], score.ScoreSettings(**card))
+    remote = score.score_gait(_candidates(1)[0], score.ScoreSettings(**card, backend="ray"))
+    assert json.dumps(local, sort_keys=True) == json.dumps(remote, sort_keys=True)
+
+
+def test_unreachable_cluster_is_a_one_line_error_and_writes_nothing(tmp_path):
+    with socket_port() as port:  # a port nobody listens on
+        address = f"127.0.0.1:{port}"
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "baselines.cem",
+            "--backend=ray",
+            f"--ray_address={address}",
+            f"--output_dir={tmp_path / 'runs'}",
+            "--rounds=1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert out.returncode == 2, out.stderr
+    lines = [line for line in out.stderr.splitlines() if line.startswith("error")]
+    assert len(lines) == 1 and "no Ray cluster answers" in lines[0]
+    assert not (tmp_path / "runs").exists()
+    with pytest.raises(ValueError, match="backend"):
+        runs.RunOptions(backend="slurm")
+    with pytest.raises(ValueError, match="valid: local, ray"):
+        ray_backend.open_evaluator("darwin_walk", 10, 1, backend="mpi")
+
+
+class socket_port:
+    """A free TCP port on localhost (bound, then released on exit)."""
+
+    def __enter__(self):
+        import socket
+
+        self._socket = socket.socket()
+        self._socket.bind(("127.0.0.1", 0))
+        return self._socket.getsockname()[1]
+
+    def __exit__(self, *exc):
+        self._socket.close()
