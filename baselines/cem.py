@@ -48,6 +48,8 @@ TABLE6_3 = {
     "K10_n1_e2": dict(population=10, noise=1.0, elite=2),
 }
 
+METHOD = "cem"  # its run directories' second level and its leaderboard rows
+
 
 class CEM:
     """The Cross-Entropy Method of thesis Alg. 6.1 on a Gaussian N(θ, Σ)."""
@@ -203,7 +205,7 @@ def run_cem(
         settings.seed,
     )
     options = options or runs.RunOptions()
-    return optimize.run(optimizer, settings, options, "cem", log, default_run_name(settings))
+    return optimize.run(optimizer, settings, options, METHOD, log, default_run_name(settings))
 
 
 def define_flags() -> None:
@@ -233,7 +235,7 @@ def main(argv):
             jobs = grid_jobs(settings, options, names, values.seeds)
         except ValueError as e:
             raise cli.UsageError(str(e)) from None
-    optimize.run_jobs(jobs, run_cem)
+    optimize.run_jobs(jobs, run_cem, method=METHOD)
 
 
 if __name__ == "__main__":

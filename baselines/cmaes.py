@@ -39,6 +39,8 @@ from absl import flags
 from baselines import cli, optimize, portable, progress, runs
 from cpg_suite import cpg
 
+METHOD = "cmaes"  # its run directories' second level and its leaderboard rows
+
 
 class CMAES:
     """The (μ/μ_w, λ)-CMA-ES behind the optimizer interface of `baselines.optimize`."""
@@ -200,7 +202,7 @@ def run_cmaes(
         cpg.amplitudes_from("hand_tuned"), settings.population, settings.sigma0, settings.seed
     )
     options = options or runs.RunOptions()
-    return optimize.run(optimizer, settings, options, "cmaes", log, default_run_name(settings))
+    return optimize.run(optimizer, settings, options, METHOD, log, default_run_name(settings))
 
 
 def define_flags() -> None:
@@ -213,7 +215,7 @@ def main(argv):
     del argv
     settings = cli.settings_from_flags(CMAESSettings)
     options = cli.settings_from_flags(runs.RunOptions)
-    optimize.run_jobs([(settings, options)], run_cmaes)
+    optimize.run_jobs([(settings, options)], run_cmaes, method=METHOD)
 
 
 if __name__ == "__main__":

@@ -17,9 +17,12 @@ failed trial: it is never the round's or the run's best, and optimizers sort it 
 from __future__ import annotations
 
 import base64
+import contextlib
 import dataclasses
+import importlib
 import os
 import pickle
+import sys
 import time
 from collections.abc import Callable
 from typing import Protocol
@@ -684,32 +687,105 @@ def run_jobs(
     jobs: list[tuple[OptimizerSettings, runs.RunOptions]],
     run: Callable[..., tuple[str, dict]],
     log: Callable[[str], None] = progress.write,
+    *,
+    method: str | None = None,
 ) -> list[tuple[str, dict]]:
     """Runs each job with `run(settings, options, log=...)`, printing a summary line per run.
 
+    With `backend="ray"` in the jobs' options and more than one job, the runs are Ray
+    tasks (each on its node's threads, `options.threads` CPUs), one summary line as each
+    finishes; a single run spreads its trials over Ray actors instead.
+
     Args:
       jobs: (settings, options) per run, options with their run names set.
-      run: The method's run function (e.g. `baselines.cem.run_cem`).
+      run: The method's run function (e.g. `baselines.cem.run_cem`), module-level.
       log: Receives progress and summary lines.
+      method: The method's name (its run directories' second level); needed for Ray tasks.
 
     Returns:
       `(run_dir, summary)` per job.
 
     Raises:
       cli.UsageError: For a run directory that exists or a foreign/corrupt checkpoint.
+      ray_backend.ClusterUnreachable: If the jobs run on Ray and no cluster answers.
     """
     start = time.perf_counter()
-    done = []
-    for i, (settings, options) in enumerate(progress.track(jobs, desc="runs", unit="run"), 1):
-        prefix = f"[{i}/{len(jobs)} {options.run_name}] " if len(jobs) > 1 else ""
-        try:
-            run_dir, summary = run(settings, options, log=lambda line, p=prefix: log(p + line))
-        except runs.RunDirectoryExists as e:
-            raise cli.UsageError(f"{e} (or --resume to continue it)") from None
-        except CheckpointError as e:
-            raise cli.UsageError(str(e)) from None
-        log(prefix + summary_line(run_dir, summary))
-        done.append((run_dir, summary))
+    if len(jobs) > 1 and jobs[0][1].backend == "ray":
+        done = _run_jobs_on_ray(jobs, run, method, log)
+    else:
+        done = []
+        for i, (settings, options) in enumerate(progress.track(jobs, desc="runs", unit="run"), 1):
+            prefix = f"[{i}/{len(jobs)} {options.run_name}] " if len(jobs) > 1 else ""
+            with _usage_errors():
+                run_dir, summary = run(settings, options, log=lambda x, p=prefix: log(p + x))
+            log(prefix + summary_line(run_dir, summary))
+            done.append((run_dir, summary))
     if len(jobs) > 1:
         log(f"{len(jobs)} runs in {time.perf_counter() - start:.0f} s")
     return done
+
+
+@contextlib.contextmanager
+def _usage_errors():
+    """A run directory that exists or a foreign checkpoint as a one-line usage error (also
+    when raised in a Ray task: Ray's error is an instance of the task's exception)."""
+    try:
+        yield
+    except runs.RunDirectoryExists as e:
+        raise cli.UsageError(f"{getattr(e, 'cause', e)} (or --resume to continue it)") from None
+    except CheckpointError as e:
+        raise cli.UsageError(str(getattr(e, "cause", e))) from None
+
+
+def _importable(obj) -> tuple[str, str]:
+    """(module, name) of a module-level object, the real module for `python -m`'s
+    `__main__` (a task imports the function and the settings class by name)."""
+    module = obj.__module__
+    if module == "__main__":
+        module = sys.modules["__main__"].__spec__.name
+    return module, obj.__qualname__
+
+
+def _run_job(job: tuple) -> tuple[str, dict]:
+    """One run of a grid in a Ray task (quiet: its summary line is the driver's)."""
+    (run_module, run_name), (settings_module, settings_name), fields, options = job
+    run = getattr(importlib.import_module(run_module), run_name)
+    settings = getattr(importlib.import_module(settings_module), settings_name)(**fields)
+    return run(settings, options, log=lambda line: None)
+
+
+def _run_jobs_on_ray(jobs, run, method, log) -> list[tuple[str, dict]]:
+    """The runs as Ray tasks. The driver reaches the cluster, then opens every run
+    directory as the options say (an existing one is an error without --resume or
+    --overwrite), so that a task that runs again after its worker died resumes its own
+    run's checkpoint (`resume=True` in the tasks)."""
+    if method is None:
+        raise ValueError("run_jobs needs the method's name to run jobs on Ray")
+    address = jobs[0][1].ray_address
+    owns_ray = ray_backend.connect(address)
+    try:
+        tasks = []
+        for settings, options in jobs:
+            with _usage_errors():
+                runs.run_directory(
+                    options.output_dir,
+                    method,
+                    settings.task,
+                    options.run_name,
+                    overwrite=options.overwrite,
+                    resume=options.resume,
+                )
+            local = dataclasses.replace(options, backend="local", resume=True, overwrite=False)
+            fields = dataclasses.asdict(settings)
+            tasks.append((_importable(run), _importable(type(settings)), fields, local))
+
+        def finished(i, result):
+            log(f"[{i + 1}/{len(jobs)} {jobs[i][1].run_name}] " + summary_line(*result))
+
+        with _usage_errors():
+            return ray_backend.map_tasks(
+                _run_job, tasks, num_cpus=jobs[0][1].threads, on_result=finished
+            )
+    finally:
+        if owns_ray:
+            ray_backend.disconnect()

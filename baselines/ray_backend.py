@@ -23,12 +23,14 @@ import math
 import os
 import pickle
 import socket
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from baselines.batch_eval import BatchEvaluator, BatchResult, check_amplitudes
 
 BACKENDS = ("local", "ray")
+_TASK_RETRIES = 3  # runs of a grid run again if their worker process dies
 
 
 class ClusterUnreachable(ConnectionError):
@@ -185,6 +187,58 @@ class RayEvaluator:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def map_tasks(
+    fn: Callable,
+    items: Sequence,
+    *,
+    address: str | None = None,
+    num_cpus: int = 1,
+    on_result: Callable[[int, object], None] | None = None,
+) -> list:
+    """`[fn(item) for item in items]`, each call a Ray task (a run of a grid or a sweep).
+
+    A task whose process dies is run again (`max_retries`), so `fn` must be safe to
+    repeat: the runs given here resume or redo their own run directory. `fn` and the items
+    are pickled to the workers (every node needs the package installed; run files go where
+    `fn` writes them, so a multi-node cluster needs a shared file system for them).
+
+    Args:
+      fn: A module-level function (pickled by reference).
+      items: Its arguments, one per task.
+      address: Ray address (see `connect`).
+      num_cpus: CPUs each task reserves (its evaluator threads).
+      on_result: Called with (index, result) as each task finishes.
+
+    Returns:
+      The results in the order of `items`.
+
+    Raises:
+      ClusterUnreachable: If no cluster answers at `address`.
+      Exception: The first exception a task raised (Ray's error is an instance of it).
+    """
+    ray = _ray()
+    owns = connect(address)
+    try:
+        task = ray.remote(num_cpus=num_cpus, max_retries=_TASK_RETRIES)(fn)
+        pending = {task.remote(item): i for i, item in enumerate(items)}
+        results: list = [None] * len(items)
+        try:
+            while pending:
+                (ref,), _ = ray.wait(list(pending), num_returns=1)
+                i = pending.pop(ref)
+                results[i] = ray.get(ref)
+                if on_result:
+                    on_result(i, results[i])
+        except BaseException:
+            for ref in pending:  # a failed run (or Ctrl-C) stops the grid
+                ray.cancel(ref)
+            raise
+        return results
+    finally:
+        if owns:
+            disconnect()
 
 
 def concatenate(parts: list[BatchResult], axis: int = 0) -> BatchResult:

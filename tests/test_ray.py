@@ -50,10 +50,11 @@ def test_ray_evaluation_equals_local_for_any_chunk_and_workers(local_ray, worker
         _same(remote.evaluate(amps[0], list(range(5))), one_gait)  # split along the seeds
 
 
-def _worker_pids(busy: bool) -> list[int]:
-    """Pids of this machine's evaluator actors (Ray titles them `ray::_Worker.<method>`
-    while they run a call, `ray::_Worker` when idle)."""
-    prefix = b"ray::_Worker.evaluate" if busy else b"ray::_Worker"
+def _worker_pids(busy: bool, prefix: bytes = b"ray::_Worker") -> list[int]:
+    """Pids of this machine's Ray processes titled `prefix` (Ray titles an actor
+    `ray::_Worker.<method>` while it runs a call, `ray::_Worker` when idle, and a task's
+    process `ray::<function>` while it runs it)."""
+    prefix = prefix + b".evaluate" if busy and prefix == b"ray::_Worker" else prefix
     pids = []
     for entry in os.listdir("/proc"):
         try:
@@ -66,15 +67,18 @@ def _worker_pids(busy: bool) -> list[int]:
 
 
 class _Killer(threading.Thread):
-    """Kills the first actor process seen in the middle of an evaluation, once."""
+    """Kills the first actor process seen in the middle of an evaluation (or the first
+    process titled `prefix`), once, `settle_s` after it is first seen."""
 
-    def __init__(self):
+    def __init__(self, prefix: bytes = b"ray::_Worker", settle_s: float = 0.0):
         super().__init__(daemon=True)
         self.killed, self._done = None, threading.Event()
+        self._prefix, self._settle_s = prefix, settle_s
 
     def run(self):
         while not self._done.is_set() and self.killed is None:
-            for pid in _worker_pids(busy=True):
+            for pid in _worker_pids(busy=True, prefix=self._prefix):
+                time.sleep(self._settle_s)
                 os.kill(pid, signal.SIGKILL)
                 self.killed = pid
                 return
@@ -123,6 +127,45 @@ def test_optimizer_run_on_ray_with_a_killed_worker_has_the_local_summary_and_car
     local = score.score_gait(_candidates(1)[0], score.ScoreSettings(**card))
     remote = score.score_gait(_candidates(1)[0], score.ScoreSettings(**card, backend="ray"))
     assert json.dumps(local, sort_keys=True) == json.dumps(remote, sort_keys=True)
+
+
+def _cem_grid(out, *extra) -> subprocess.Popen:
+    command = [sys.executable, "-m", "baselines.cem", "--grid=table6_3"]
+    command += ["--settings=K10_n0_e2", "--seeds=2", "--rounds=4", "--trial_steps=400"]
+    command += ["--validation_seeds=2", "--test_seeds=2", "--threads=1", f"--output_dir={out}"]
+    return subprocess.Popen(
+        command + list(extra), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+
+
+def _summaries(out) -> list[dict]:
+    found = []
+    for seed in (0, 1):
+        path = out / "cem" / "darwin_walk" / f"K10_n0_e2_seed{seed}" / "summary.json"
+        summary = json.loads(path.read_text())
+        found.append({k: v for k, v in summary.items() if k != "wall_s"})
+    return found
+
+
+def test_grid_runs_as_ray_tasks_survive_a_killed_task_and_resume_per_run(tmp_path):
+    local = _cem_grid(tmp_path / "local")
+    assert local.wait(timeout=600) == 0, local.stderr.read()
+    killer = _Killer(prefix=b"ray::_run_job", settle_s=2.0)  # mid-run, past a checkpoint
+    killer.start()
+    grid = _cem_grid(tmp_path / "ray", "--backend=ray")
+    stdout, stderr = grid.communicate(timeout=600)
+    killer.stop()
+    assert grid.returncode == 0, stderr
+    assert killer.killed is not None, "no grid task was seen running"
+    assert _summaries(tmp_path / "ray") == _summaries(tmp_path / "local")
+    assert stdout.count("test score (all tiers") == 2  # a summary line per run
+    again = _cem_grid(tmp_path / "ray", "--backend=ray")
+    _, stderr = again.communicate(timeout=600)
+    errors = [line for line in stderr.splitlines() if line.startswith("error")]
+    assert again.returncode == 2 and len(errors) == 1 and "--resume" in errors[0], stderr
+    resumed = _cem_grid(tmp_path / "ray", "--backend=ray", "--resume")
+    assert resumed.wait(timeout=600) == 0, resumed.stderr.read()
+    assert _summaries(tmp_path / "ray") == _summaries(tmp_path / "local")
 
 
 def test_unreachable_cluster_is_a_one_line_error_and_writes_nothing(tmp_path):
