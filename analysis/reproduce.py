@@ -79,6 +79,14 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", required=True, help="output folder")
     parser.add_argument("--threads", type=int, default=2, help="evaluator threads of CEM/CMA-ES")
     parser.add_argument(
+        "--backend",
+        choices=["local", "ray"],
+        default="local",
+        help="ray: the runs of the CEM grid, the pole and NAC sweeps as Ray tasks, CMA-ES's "
+        "trials on Ray actors (same results)",
+    )
+    parser.add_argument("--ray_address", default=None, help="Ray cluster: host:port, or auto")
+    parser.add_argument(
         "--gaits",
         action=argparse.BooleanOptionalAction,
         default=None,
@@ -87,18 +95,26 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def experiment_steps(plan: dict, runs: str, threads: int) -> list[tuple[str, list[str]]]:
+def experiment_steps(
+    plan: dict, runs: str, threads: int, backend: list[str] = ()
+) -> list[tuple[str, list[str]]]:
     """The experiments in order, as (title, `python -m` arguments): 1. value iteration on
     the Tokic model, 2. the pole claims, 3. the crawler experiments, 4. CEM's Table 6.3
-    (5. its K = 50 seeds in --full), 6. CMA-ES, 7. NAC. Each resumes finished runs."""
-    optimizer = [f"--output_dir={runs}", f"--threads={threads}", "--resume"]
+    (5. its K = 50 seeds in --full), 6. CMA-ES, 7. NAC. Each resumes finished runs.
+    `backend` (`--backend=...`, `--ray_address=...`) goes to the steps that take it
+    (pole, CEM, CMA-ES, NAC; the crawler experiments run here)."""
+    backend = list(backend)
+    optimizer = [f"--output_dir={runs}", f"--threads={threads}", "--resume", *backend]
     steps = [
         (
             "tokic value iteration",
             ["baselines.tabular", "--model=tokic", "--algo=value_iteration"]
             + [f"--output_dir={runs}", "--overwrite"],
         ),
-        ("pole claims", ["baselines.pole_claims", f"--output_dir={runs}/pole", "--resume"]),
+        (
+            "pole claims",
+            ["baselines.pole_claims", f"--output_dir={runs}/pole", "--resume", *backend],
+        ),
         (
             "crawler experiments",
             ["baselines.crawler_experiments", f"--output_dir={runs}/crawler", "--resume"],
@@ -113,7 +129,8 @@ def experiment_steps(plan: dict, runs: str, threads: int) -> list[tuple[str, lis
         steps[-1][1].extend(plan["cem_k50"])
     for extra in plan["cmaes"]:
         steps.append(("CMA-ES", ["baselines.cmaes", *optimizer, *extra]))
-    nac = ["baselines.nac_experiments", f"--output_dir={runs}/nac", "--resume", *plan["nac"]]
+    nac = ["baselines.nac_experiments", f"--output_dir={runs}/nac", "--resume", *backend]
+    nac += plan["nac"]
     steps.append(("NAC", nac))
     return steps
 
@@ -143,9 +160,11 @@ def main(argv=None) -> int:
     runs = os.path.join(args.out, "runs")
     os.makedirs(runs, exist_ok=True)
     start = time.perf_counter()
-    if not _run_steps(
-        experiment_steps(plan, runs, args.threads), os.path.join(args.out, "reproduce.log")
-    ):
+    backend = [f"--backend={args.backend}"]
+    if args.ray_address:
+        backend.append(f"--ray_address={args.ray_address}")
+    steps = experiment_steps(plan, runs, args.threads, backend)
+    if not _run_steps(steps, os.path.join(args.out, "reproduce.log")):
         return 1
     from analysis import leaderboard, report
 

@@ -119,3 +119,17 @@ def require(condition: bool, message: str) -> None:
     """Raises `ValueError(message)` unless `condition` holds (for settings validation)."""
     if not condition:
         raise ValueError(message)
+
+
+BACKENDS = ("local", "ray")  # where runs and trials execute (`baselines.ray_backend`)
+
+
+def require_backend(backend: str) -> None:
+    """Raises `ValueError` unless `backend` is one of `BACKENDS`."""
+    require(backend in BACKENDS, f"--backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
+
+
+def define_backend_flags() -> None:
+    """`--backend` and `--ray_address` (the settings fields `backend`, `ray_address`)."""
+    flags.DEFINE_enum("backend", "local", list(BACKENDS), "local threads, or Ray (same results).")
+    flags.DEFINE_string("ray_address", None, "Ray cluster: host:port of its head, or auto.")

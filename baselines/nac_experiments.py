@@ -32,6 +32,7 @@ def define_flags() -> None:
     flags.DEFINE_integer("steps", 20000, "Learning steps (16 ms each).")
     flags.DEFINE_integer("eval_seeds", 5, "Evaluation initial states (100..100+N-1).")
     flags.DEFINE_bool("resume", False, "Reuse runs that already have a summary.json.")
+    cli.define_backend_flags()
 
 
 CONFIGS = {
@@ -64,6 +65,8 @@ class NACExperimentSettings:
       steps: Learning steps per run.
       eval_seeds: Evaluation initial states per run (100..100+N-1).
       resume: Reuse runs that already have a summary.json.
+      backend: "local" (one run after another) or "ray" (every run a Ray task).
+      ray_address: The Ray cluster for backend "ray" (host:port, "auto", or None).
     """
 
     output_dir: str = "runs"
@@ -71,11 +74,14 @@ class NACExperimentSettings:
     steps: int = 20000
     eval_seeds: int = 5
     resume: bool = False
+    backend: str = "local"
+    ray_address: str | None = None
 
     def __post_init__(self):
         cli.require(self.seeds >= 2, f"--seeds must be ≥ 2, got {self.seeds}")
         cli.require(self.steps >= 100, f"--steps must be ≥ 100, got {self.steps}")
         cli.require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
+        cli.require_backend(self.backend)
 
 
 def ci95(values) -> tuple[float, float, float]:
@@ -118,6 +124,41 @@ def run_one(name: str, seed: int, settings: NACExperimentSettings) -> dict:
         f"diverged {summary['diverged']}"
     )
     return summary
+
+
+def _run_on_ray(jobs: list[tuple[str, int]], settings: NACExperimentSettings) -> list[dict]:
+    """Every run a Ray task. The driver checks the run directories first (one that holds
+    files is an error unless it is a finished run and `resume` is on); a task redoes its
+    unfinished run, so one that runs again after its worker died starts clean.
+
+    Raises:
+      runs.RunDirectoryExists: As `run_one`.
+    """
+    from baselines import ray_backend
+
+    owns_ray = ray_backend.connect(settings.ray_address)
+    try:
+        for name, seed in jobs:
+            run = run_settings(name, seed, settings)
+            path = os.path.join(run.output_dir, "nac", run.task, run.run_name)
+            finished = os.path.exists(os.path.join(path, "summary.json"))
+            if os.path.isdir(path) and os.listdir(path) and not (settings.resume and finished):
+                raise runs.RunDirectoryExists(f"run directory {path} already exists")
+        settings = ray_backend.importable_settings(settings)
+        task = ray_backend.importable(_run_task)
+        return ray_backend.map_tasks(task, [(n, s, settings) for n, s in jobs])
+    finally:
+        if owns_ray:
+            ray_backend.disconnect()
+
+
+def _run_task(job: tuple[str, int, NACExperimentSettings]) -> dict:
+    name, seed, settings = job
+    run = run_settings(name, seed, settings)
+    path = os.path.join(run.output_dir, "nac", run.task, run.run_name, "summary.json")
+    if os.path.exists(path):
+        return runs.read_json(path)
+    return nac.run_nac(dataclasses.replace(run, overwrite=True), log=lambda line: None)[1]
 
 
 def table_row(name: str, summaries: list[dict]) -> str:
@@ -168,8 +209,12 @@ def run_experiments(settings: NACExperimentSettings) -> list[str]:
     """
     jobs = [(name, seed) for name in CONFIGS for seed in range(settings.seeds)]
     summaries: dict[str, list[dict]] = {name: [] for name in CONFIGS}
-    for name, seed in progress.track(jobs, desc="NAC runs", unit="run"):
-        summaries[name].append(run_one(name, seed, settings))
+    if settings.backend == "local":
+        done = [run_one(n, s, settings) for n, s in progress.track(jobs, desc="NAC runs")]
+    else:
+        done = _run_on_ray(jobs, settings)
+    for (name, _), summary in zip(jobs, done):
+        summaries[name].append(summary)
     lines = _header(settings) + [table_row(name, summaries[name]) for name in CONFIGS] + [""]
     os.makedirs(settings.output_dir, exist_ok=True)
     path = os.path.join(settings.output_dir, "nac_experiments.md")

@@ -19,10 +19,8 @@ from __future__ import annotations
 import base64
 import contextlib
 import dataclasses
-import importlib
 import os
 import pickle
-import sys
 import time
 from collections.abc import Callable
 from typing import Protocol
@@ -156,8 +154,7 @@ def define_flags() -> None:
     flags.DEFINE_string("run_name", o.run_name, "Run directory name (default from settings).")
     flags.DEFINE_bool("resume", o.resume, "Continue runs from their checkpoints.")
     flags.DEFINE_bool("overwrite", o.overwrite, "Replace existing run directories.")
-    flags.DEFINE_enum("backend", o.backend, ["local", "ray"], "Evaluator backend (same results).")
-    flags.DEFINE_string("ray_address", o.ray_address, "Ray cluster: host:port, or auto.")
+    cli.define_backend_flags()
 
 
 PROGRESS_FIELDS = [
@@ -543,8 +540,9 @@ def run_optimizer(
             ray_backend.disconnect()
 
 
-def _run_in_directory(method, optimizer, settings, options, log) -> tuple[str, dict]:
-    run_dir = runs.run_directory(
+def _open_run_directory(method: str, settings, options: runs.RunOptions) -> str:
+    """The run's directory, opened as `options.resume` and `options.overwrite` say."""
+    return runs.run_directory(
         options.output_dir,
         method,
         settings.task,
@@ -552,6 +550,10 @@ def _run_in_directory(method, optimizer, settings, options, log) -> tuple[str, d
         overwrite=options.overwrite,
         resume=options.resume,
     )
+
+
+def _run_in_directory(method, optimizer, settings, options, log) -> tuple[str, dict]:
+    run_dir = _open_run_directory(method, settings, options)
     summary_path = os.path.join(run_dir, "summary.json")
     if options.resume and os.path.exists(summary_path):
         log(f"{run_dir}: already finished")
@@ -737,20 +739,9 @@ def _usage_errors():
         raise cli.UsageError(str(getattr(e, "cause", e))) from None
 
 
-def _importable(obj) -> tuple[str, str]:
-    """(module, name) of a module-level object, the real module for `python -m`'s
-    `__main__` (a task imports the function and the settings class by name)."""
-    module = obj.__module__
-    if module == "__main__":
-        module = sys.modules["__main__"].__spec__.name
-    return module, obj.__qualname__
-
-
 def _run_job(job: tuple) -> tuple[str, dict]:
     """One run of a grid in a Ray task (quiet: its summary line is the driver's)."""
-    (run_module, run_name), (settings_module, settings_name), fields, options = job
-    run = getattr(importlib.import_module(run_module), run_name)
-    settings = getattr(importlib.import_module(settings_module), settings_name)(**fields)
+    run, settings, options = job
     return run(settings, options, log=lambda line: None)
 
 
@@ -767,17 +758,10 @@ def _run_jobs_on_ray(jobs, run, method, log) -> list[tuple[str, dict]]:
         tasks = []
         for settings, options in jobs:
             with _usage_errors():
-                runs.run_directory(
-                    options.output_dir,
-                    method,
-                    settings.task,
-                    options.run_name,
-                    overwrite=options.overwrite,
-                    resume=options.resume,
-                )
+                _open_run_directory(method, settings, options)
             local = dataclasses.replace(options, backend="local", resume=True, overwrite=False)
-            fields = dataclasses.asdict(settings)
-            tasks.append((_importable(run), _importable(type(settings)), fields, local))
+            settings = ray_backend.importable_settings(settings)
+            tasks.append((ray_backend.importable(run), settings, local))
 
         def finished(i, result):
             log(f"[{i + 1}/{len(jobs)} {jobs[i][1].run_name}] " + summary_line(*result))

@@ -39,6 +39,7 @@ def define_flags() -> None:
     flags.DEFINE_integer("steps", d.steps, "Learning steps per run (the study's α horizon).")
     flags.DEFINE_integer("force_steps", d.force_steps, "Steps of the force comparison (Fig. 4.9).")
     flags.DEFINE_bool("resume", d.resume, "Skip runs that already have a summary.json.")
+    cli.define_backend_flags()
 
 
 LAST = 5000  # Steps at the end of a run that must pass without a fall ("balanced").
@@ -113,7 +114,13 @@ def _toward_fall_fraction(run_dir: str, forces: np.ndarray) -> float:
 
 
 def run_all(
-    output_dir: str, seeds: int, steps: int, force_steps: int, resume: bool
+    output_dir: str,
+    seeds: int,
+    steps: int,
+    force_steps: int,
+    resume: bool,
+    backend: str = "local",
+    ray_address: str | None = None,
 ) -> pd.DataFrame:
     """Runs every configuration × seed; returns one row per run.
 
@@ -123,6 +130,7 @@ def run_all(
       steps: Learning steps of the long runs.
       force_steps: Learning steps of the force comparison.
       resume: Reuse runs that have a `summary.json`.
+      backend, ray_address: "ray" runs every run as a Ray task (`runner.execute_all`).
 
     Returns:
       One row per run (`run_row`).
@@ -130,17 +138,22 @@ def run_all(
     Raises:
       runs.RunDirectoryExists: If a run exists and `resume` is off.
     """
-    rows = []
-    total = len(CONFIGS) * seeds
     start = time.perf_counter()
     jobs = [(config, seed) for config in CONFIGS for seed in range(seeds)]
-    for config, seed in progress.track(jobs, desc="pole runs", unit="run"):
-        settings = run_settings(config, seed, output_dir, steps if config.long else force_steps)
-        run_dir, summary = runner.execute(settings, resume=resume)
-        rows.append(run_row(config, settings, run_dir, summary))
+    settings = [
+        run_settings(config, seed, output_dir, steps if config.long else force_steps)
+        for config, seed in jobs
+    ]
+    if backend != "local":  # every run a Ray task
+        done = runner.execute_all(settings, resume, backend, ray_address)
+        rows = [run_row(c, s, *result) for (c, _), s, result in zip(jobs, settings, done)]
+        return pd.DataFrame(rows)
+    rows = []
+    for (config, seed), s in progress.track(list(zip(jobs, settings)), desc="pole runs"):
+        rows.append(run_row(config, s, *runner.execute(s, resume=resume)))
         if seed == seeds - 1:
             progress.write(
-                f"[{len(rows)}/{total}] {config.name}: balanced "
+                f"[{len(rows)}/{len(jobs)}] {config.name}: balanced "
                 f"{sum(r['balanced'] for r in rows[-seeds:])}/{seeds} "
                 f"({time.perf_counter() - start:.0f} s)"
             )
@@ -490,6 +503,8 @@ class PoleClaimsSettings:
       steps: Learning steps per run, more than `LAST` (the study's α horizon).
       force_steps: Learning steps of the force comparison (thesis Fig. 4.9).
       resume: Skip runs that already have a summary.json.
+      backend: "local" (one run after another) or "ray" (every run a Ray task).
+      ray_address: The Ray cluster for backend "ray" (host:port, "auto", or None).
     """
 
     output_dir: str = "runs/pole_claims"
@@ -497,11 +512,14 @@ class PoleClaimsSettings:
     steps: int = 20000
     force_steps: int = 5000
     resume: bool = False
+    backend: str = "local"
+    ray_address: str | None = None
 
     def __post_init__(self):
         cli.require(self.seeds >= 2, f"--seeds must be ≥ 2, got {self.seeds}")
         cli.require(self.steps > LAST, f"--steps must exceed {LAST}, got {self.steps}")
         cli.require(self.force_steps >= 1, f"--force_steps must be ≥ 1, got {self.force_steps}")
+        cli.require_backend(self.backend)
 
 
 def run_experiment(settings: PoleClaimsSettings) -> list[dict]:
@@ -518,7 +536,15 @@ def run_experiment(settings: PoleClaimsSettings) -> list[dict]:
     """
     out = settings.output_dir
     os.makedirs(out, exist_ok=True)
-    per_run = run_all(out, settings.seeds, settings.steps, settings.force_steps, settings.resume)
+    per_run = run_all(
+        out,
+        settings.seeds,
+        settings.steps,
+        settings.force_steps,
+        settings.resume,
+        settings.backend,
+        settings.ray_address,
+    )
     agg = aggregate(per_run)
     claims = evaluate_claims(agg)
     runs.write_text(os.path.join(out, "pole_runs.csv"), per_run.to_csv(index=False))

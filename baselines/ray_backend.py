@@ -1,4 +1,4 @@
-"""The batched evaluator on a Ray cluster (docs/architecture.md, "Ray backend").
+"""Trials and runs on a Ray cluster (docs/architecture.md#ray-backend).
 
 `RayEvaluator` has the interface of `baselines.batch_eval.BatchEvaluator` (`evaluate`,
 `close`, a context manager). A run's evaluators share one set of Ray actors, one CPU and
@@ -18,18 +18,21 @@ evaluator is made.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
+import importlib
 import math
 import os
 import pickle
 import socket
+import sys
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from baselines.batch_eval import BatchEvaluator, BatchResult, check_amplitudes
+from baselines.cli import BACKENDS
 
-BACKENDS = ("local", "ray")
 _TASK_RETRIES = 3  # runs of a grid run again if their worker process dies
 
 
@@ -189,6 +192,21 @@ class RayEvaluator:
         self.close()
 
 
+def importable(obj):
+    """The module-level function or class `obj` as imported from its module, so that Ray
+    pickles it by reference: under `python -m baselines.x` the CLI's own definitions live
+    in `__main__`, which a worker cannot import."""
+    if obj.__module__ != "__main__":
+        return obj
+    module = importlib.import_module(sys.modules["__main__"].__spec__.name)
+    return getattr(module, obj.__qualname__)
+
+
+def importable_settings(settings):
+    """A settings dataclass rebuilt as an instance of its `importable` class."""
+    return importable(type(settings))(**dataclasses.asdict(settings))
+
+
 def map_tasks(
     fn: Callable,
     items: Sequence,
@@ -221,6 +239,8 @@ def map_tasks(
     ray = _ray()
     owns = connect(address)
     try:
+        for actor in _POOLS.pop(ray.get_runtime_context().get_job_id(), []):
+            ray.kill(actor)  # idle evaluator actors would hold the CPUs the tasks need
         task = ray.remote(num_cpus=num_cpus, max_retries=_TASK_RETRIES)(fn)
         pending = {task.remote(item): i for i, item in enumerate(items)}
         results: list = [None] * len(items)

@@ -21,6 +21,8 @@ import time
 
 import numpy as np
 
+from baselines import cli
+
 
 @dataclasses.dataclass(frozen=True)
 class RunOptions:
@@ -47,8 +49,7 @@ class RunOptions:
     ray_address: str | None = None
 
     def __post_init__(self):
-        if self.backend not in ("local", "ray"):
-            raise ValueError(f"--backend must be local or ray, got {self.backend!r}")
+        cli.require_backend(self.backend)
         if self.threads < 1:
             raise ValueError(f"--threads must be ≥ 1, got {self.threads}")
         if self.resume and self.overwrite:

@@ -69,10 +69,7 @@ class ScoreSettings:
         )
         cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
         cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
-        cli.require(
-            self.backend in ray_backend.BACKENDS,
-            f"--backend must be one of {', '.join(ray_backend.BACKENDS)}, got {self.backend!r}",
-        )
+        cli.require_backend(self.backend)
 
 
 def _interval(values: np.ndarray, statistic) -> list[float]:
@@ -360,8 +357,7 @@ def define_flags() -> None:
     flags.DEFINE_integer("seeds", d.seeds, "How many of the 50 test seeds.")
     flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")
     flags.DEFINE_integer("threads", d.threads, "Evaluator threads (results do not depend on it).")
-    flags.DEFINE_enum("backend", d.backend, list(ray_backend.BACKENDS), "Evaluator backend.")
-    flags.DEFINE_string("ray_address", d.ray_address, "Ray cluster (host:port or auto).")
+    cli.define_backend_flags()
     flags.DEFINE_string("out", None, "Directory for score.json (default: print only).")
 
 

@@ -1,6 +1,7 @@
 """The Ray backend on a real local Ray instance: identical results, a killed worker, an
 unreachable cluster."""
 
+import dataclasses
 import json
 import os
 import signal
@@ -12,8 +13,10 @@ import time
 import numpy as np
 import pytest
 
-from baselines import cem, ray_backend, runs, score
+from baselines import cem, nac_experiments, ray_backend, runs, score
 from baselines.batch_eval import BatchEvaluator
+from baselines.tabular import runner
+from baselines.tabular.settings import TabularSettings
 from cpg_suite import cpg
 
 ray = pytest.importorskip("ray")
@@ -166,6 +169,32 @@ def test_grid_runs_as_ray_tasks_survive_a_killed_task_and_resume_per_run(tmp_pat
     resumed = _cem_grid(tmp_path / "ray", "--backend=ray", "--resume")
     assert resumed.wait(timeout=600) == 0, resumed.stderr.read()
     assert _summaries(tmp_path / "ray") == _summaries(tmp_path / "local")
+
+
+def test_experiment_sweeps_as_ray_tasks_equal_the_local_ones(local_ray, tmp_path):
+    def table(backend):
+        settings = nac_experiments.NACExperimentSettings(
+            output_dir=str(tmp_path / backend), seeds=2, steps=300, eval_seeds=1, backend=backend
+        )
+        lines = nac_experiments.run_experiments(settings)
+        return [line.replace(settings.output_dir, "OUT") for line in lines]
+
+    assert table("local") == table("ray")
+    pole = [
+        TabularSettings(task="pole_balance", algo="q_learning", bins="20x20", steps=400, seed=s)
+        for s in (0, 1)
+    ]
+
+    def sweep(backend):
+        out = str(tmp_path / f"pole_{backend}")
+        done = runner.execute_all(
+            [dataclasses.replace(p, output_dir=out) for p in pole], False, backend
+        )
+        return [{k: v for k, v in summary.items() if k != "wall_s"} for _, summary in done]
+
+    assert sweep("local") == sweep("ray")
+    with pytest.raises(runs.RunDirectoryExists):  # the driver checks before any task runs
+        sweep("ray")
 
 
 def test_unreachable_cluster_is_a_one_line_error_and_writes_nothing(tmp_path):

@@ -514,3 +514,42 @@ def rerun_command(settings: TabularSettings) -> str:
     del flags_of_run["overwrite"]
     flags_of_run["run_name"] = settings.run_name_or_default()
     return runs.command_line("baselines.tabular", flags_of_run)
+
+
+def execute_all(
+    settings: list[TabularSettings],
+    resume: bool = False,
+    backend: str = "local",
+    ray_address: str | None = None,
+) -> list[tuple[str, dict]]:
+    """`execute` for every settings, in this process or as Ray tasks (the seed sweeps of
+    the experiment scripts); the results in order.
+
+    On Ray, the driver checks every run directory first (one that exists is an error
+    unless `resume`), then each task runs with `resume=True`, so a task that runs again
+    after its worker died redoes its unfinished run.
+
+    Raises:
+      runs.RunDirectoryExists: If a run exists and neither `overwrite` nor `resume` applies.
+      ray_backend.ClusterUnreachable: On Ray, if no cluster answers.
+    """
+    if backend == "local":
+        return [execute(s, resume=resume) for s in settings]
+    from baselines import ray_backend
+
+    owns_ray = ray_backend.connect(ray_address)
+    try:
+        for s in settings:
+            path = os.path.join(s.output_dir, s.algo, s.target, s.run_name_or_default())
+            if os.path.isdir(path) and os.listdir(path) and not (resume or s.overwrite):
+                raise runs.RunDirectoryExists(
+                    f"run directory {path} already exists; pass --overwrite to replace it"
+                )
+        return ray_backend.map_tasks(_execute_resumed, settings)
+    finally:
+        if owns_ray:
+            ray_backend.disconnect()
+
+
+def _execute_resumed(settings: TabularSettings) -> tuple[str, dict]:
+    return execute(settings, resume=True)
