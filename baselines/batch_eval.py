@@ -51,6 +51,7 @@ class Episode:
     state: np.ndarray  # mjSTATE_FULLPHYSICS after reset
     model: mujoco.MjModel
     pushes: np.ndarray | None  # (steps, 3) force on the torso per control step, N
+    ctrl: np.ndarray | None = None  # the reset's actuator controls (the posture's targets)
 
 
 # The warnings after which dm_control declares the physics state invalid (PhysicsError).
@@ -191,7 +192,7 @@ class BatchEvaluator:
             own_model = task.randomization is not None or task.terrain is not None
             pushes = task.push_forces(self.steps) if task.pushes is not None else None
             self._episodes[seed] = Episode(
-                state, copy.copy(model) if own_model else self.model, pushes
+                state, copy.copy(model) if own_model else self.model, pushes, data.ctrl.copy()
             )
         return self._episodes[seed]
 

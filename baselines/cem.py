@@ -34,7 +34,6 @@ import numpy as np
 from absl import flags
 
 from baselines import cli, optimize, portable, progress, runs
-from cpg_suite import cpg
 
 # Thesis Table 6.3 (K, noise, elite), plus the variants of Sec. 6.3: the lateral penalty
 # and noise 0.2 / 1.0 (K 10, elite 2). Names are run-name prefixes.
@@ -153,11 +152,11 @@ class CEMSettings(optimize.OptimizerSettings):
 
 
 def default_run_name(settings: CEMSettings) -> str:
-    """`K<population>_n<noise>_e<elite>[_lateral]_seed<seed>`."""
+    """`K<population>_n<noise>_e<elite>[_lateral][_feedback]_seed<seed>`."""
     lateral = "_lateral" if settings.lateral_penalty else ""
-    return (
-        f"K{settings.population}_n{settings.noise:g}_e{settings.elite}{lateral}_seed{settings.seed}"
-    )
+    feedback = "_feedback" if settings.controller == "feedback" else ""
+    name = f"K{settings.population}_n{settings.noise:g}_e{settings.elite}{lateral}{feedback}"
+    return f"{name}_seed{settings.seed}"
 
 
 def grid_jobs(
@@ -198,7 +197,7 @@ def run_cem(
       runs.RunDirectoryExists, optimize.CheckpointError.
     """
     optimizer = CEM(
-        cpg.amplitudes_from("hand_tuned"),
+        optimize.start_vector(settings),
         settings.population,
         settings.elite,
         settings.noise,

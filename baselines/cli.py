@@ -133,3 +133,16 @@ def define_backend_flags() -> None:
     """`--backend` and `--ray_address` (the settings fields `backend`, `ray_address`)."""
     flags.DEFINE_enum("backend", "local", list(BACKENDS), "local threads, or Ray (same results).")
     flags.DEFINE_string("ray_address", None, "Ray cluster: host:port of its head, or auto.")
+
+
+# What the optimizers tune and the scorer scores: the study's open-loop CPG amplitudes, or
+# the feedback CPG's parameters (`cpg_suite.feedback`).
+CONTROLLERS = ("open_loop", "feedback")
+
+
+def require_controller(controller: str) -> None:
+    """Raises `ValueError` unless `controller` is one of `CONTROLLERS`."""
+    require(
+        controller in CONTROLLERS,
+        f"--controller must be one of {', '.join(CONTROLLERS)}, got {controller!r}",
+    )

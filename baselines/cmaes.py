@@ -37,7 +37,6 @@ import numpy as np
 from absl import flags
 
 from baselines import cli, optimize, portable, progress, runs
-from cpg_suite import cpg
 
 METHOD = "cmaes"  # its run directories' second level and its leaderboard rows
 
@@ -175,9 +174,10 @@ class CMAESSettings(optimize.OptimizerSettings):
 
 
 def default_run_name(settings: CMAESSettings) -> str:
-    """`K<population>_s<sigma0>[_lateral]_seed<seed>`."""
+    """`K<population>_s<sigma0>[_lateral][_feedback]_seed<seed>`."""
     lateral = "_lateral" if settings.lateral_penalty else ""
-    return f"K{settings.population}_s{settings.sigma0:g}{lateral}_seed{settings.seed}"
+    feedback = "_feedback" if settings.controller == "feedback" else ""
+    return f"K{settings.population}_s{settings.sigma0:g}{lateral}{feedback}_seed{settings.seed}"
 
 
 def run_cmaes(
@@ -199,7 +199,7 @@ def run_cmaes(
       runs.RunDirectoryExists, optimize.CheckpointError.
     """
     optimizer = CMAES(
-        cpg.amplitudes_from("hand_tuned"), settings.population, settings.sigma0, settings.seed
+        optimize.start_vector(settings), settings.population, settings.sigma0, settings.seed
     )
     options = options or runs.RunOptions()
     return optimize.run(optimizer, settings, options, METHOD, log, default_run_name(settings))

@@ -30,7 +30,7 @@ from absl import flags
 
 from baselines import cli, progress, protocol, ray_backend, runs, score
 from baselines.batch_eval import BatchEvaluator, BatchResult
-from cpg_suite import cpg
+from cpg_suite import cpg, feedback
 
 TASKS = protocol.TIERS  # Optimizers may train on any tier.
 
@@ -54,6 +54,8 @@ class OptimizerSettings:
       validation_every: Rounds between validation scores of the mean (0: none).
       validation_top: In-sample best candidates re-scored on validation with the final mean.
       test_seeds: Test seeds per tier the selected gait is scored on at the end (0: none).
+      controller: What is tuned: "open_loop" (the study's 11 CPG amplitudes) or
+        "feedback" (the amplitudes and the feedback CPG's gains, `cpg_suite.feedback`).
     """
 
     task: str = "darwin_walk"
@@ -69,9 +71,11 @@ class OptimizerSettings:
     validation_every: int = 10
     validation_top: int = 3
     test_seeds: int = len(protocol.TEST)
+    controller: str = "open_loop"
 
     def __post_init__(self):
         require = cli.require
+        cli.require_controller(self.controller)
         require(self.task in TASKS, f"unknown --task {self.task!r}; valid: {', '.join(TASKS)}")
         require(self.population >= 2, f"--population must be ≥ 2, got {self.population}")
         require(self.rounds >= 1, f"--rounds must be ≥ 1, got {self.rounds}")
@@ -155,6 +159,9 @@ def define_flags() -> None:
     flags.DEFINE_bool("resume", o.resume, "Continue runs from their checkpoints.")
     flags.DEFINE_bool("overwrite", o.overwrite, "Replace existing run directories.")
     cli.define_backend_flags()
+    flags.DEFINE_enum(
+        "controller", d.controller, list(cli.CONTROLLERS), "open_loop amplitudes or feedback CPG."
+    )
 
 
 PROGRESS_FIELDS = [
@@ -196,7 +203,17 @@ def best_index(costs: np.ndarray) -> int | None:
 
 
 def _amplitudes_json(vector) -> dict:
+    """The parameters by name: the amplitudes (and the feedback gains, if any)."""
+    if len(vector) == feedback.N_PARAMS:
+        return feedback.params_json(vector)
     return {"amplitudes": {n: float(v) for n, v in zip(cpg.AMPLITUDE_NAMES, vector)}}
+
+
+def start_vector(settings: OptimizerSettings) -> np.ndarray:
+    """Where an optimizer starts: the hand-tuned gait (with zero feedback gains)."""
+    if settings.controller == "feedback":
+        return feedback.start_params("hand_tuned")
+    return cpg.amplitudes_from("hand_tuned")
 
 
 @dataclasses.dataclass
@@ -468,6 +485,7 @@ def run_rounds(
     final = evaluator.evaluate(optimizer.mean, round_seeds(settings, settings.rounds + 1))
     summary = _finish(run_dir, state, optimizer, final, time.perf_counter() - start)
     scoring = {"threads": threads, "backend": backend, "ray_address": ray_address}
+    scoring["controller"] = settings.controller
     summary.update(_select_and_test(run_dir, state, optimizer, evaluator, settings, scoring, log))
     runs.write_json(os.path.join(run_dir, "summary.json"), summary)
     return summary
@@ -568,7 +586,12 @@ def _run_in_directory(method, optimizer, settings, options, log) -> tuple[str, d
         command = runs.command_line(f"baselines.{method}", flags_of_run) if builtin else None
         runs.write_config(run_dir, settings, command)
     with ray_backend.open_evaluator(
-        settings.task, settings.trial_steps, options.threads, options.backend, options.ray_address
+        settings.task,
+        settings.trial_steps,
+        options.threads,
+        options.backend,
+        options.ray_address,
+        settings.controller,
     ) as evaluator:
         summary = run_rounds(
             optimizer,
@@ -712,6 +735,8 @@ def run_jobs(
       ray_backend.ClusterUnreachable: If the jobs run on Ray and no cluster answers.
     """
     start = time.perf_counter()
+    feedback_on_ray = any(s.controller == "feedback" and o.backend != "local" for s, o in jobs)
+    cli.check(not feedback_on_ray, "--controller=feedback runs with --backend=local only")
     if len(jobs) > 1 and jobs[0][1].backend == "ray":
         done = _run_jobs_on_ray(jobs, run, method, log)
     else:

@@ -31,7 +31,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from baselines.batch_eval import BatchEvaluator, BatchResult, check_amplitudes
-from baselines.cli import BACKENDS
+from baselines.cli import BACKENDS, CONTROLLERS
 
 _TASK_RETRIES = 3  # runs of a grid run again if their worker process dies
 
@@ -285,14 +285,26 @@ def open_evaluator(
     threads: int,
     backend: str = "local",
     ray_address: str | None = None,
+    controller: str = "open_loop",
     **evaluator_kwargs,
 ):
-    """A local `BatchEvaluator` or a `RayEvaluator`, by `backend` (one of `BACKENDS`).
+    """The evaluator of `controller` ("open_loop" amplitudes or "feedback" parameters) on
+    `backend` (one of `BACKENDS`): a local `BatchEvaluator`, a `RayEvaluator`, or a local
+    `baselines.feedback_eval.FeedbackEvaluator`.
 
     Raises:
-      ValueError: On an unknown backend (and as the evaluators do).
+      ValueError: On an unknown backend or controller, or the feedback controller on Ray
+        (not available yet), and as the evaluators do.
       ClusterUnreachable: For the Ray backend, if no cluster answers.
     """
+    if controller not in CONTROLLERS:
+        raise ValueError(f"unknown controller {controller!r}; valid: {', '.join(CONTROLLERS)}")
+    if controller == "feedback":
+        if backend != "local":
+            raise ValueError("--controller=feedback runs on the local backend only")
+        from baselines.feedback_eval import FeedbackEvaluator
+
+        return FeedbackEvaluator(task, steps, threads, **evaluator_kwargs)
     if backend == "local":
         return BatchEvaluator(task, steps, threads, **evaluator_kwargs)
     if backend == "ray":  # one single-thread actor per CPU: `threads` is the local backend's

@@ -17,6 +17,7 @@ numbers stepping the environment gives (tested).
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 from collections.abc import Callable
 
@@ -29,7 +30,7 @@ import cpg_suite
 from baselines import cli, gait, progress, protocol, ray_backend, runs
 from baselines import quality as gait_quality
 from baselines.batch_eval import clear_invalid_state_warnings, invalid_state
-from cpg_suite import cpg
+from cpg_suite import cpg, feedback
 
 _BOOTSTRAP_RESAMPLES = 2000
 _BOOTSTRAP_SEED = 0
@@ -46,6 +47,7 @@ class ScoreSettings:
       threads: Evaluator threads (results do not depend on it).
       backend: "local" threads or "ray" actors (results do not depend on it).
       ray_address: The Ray cluster for backend "ray" (host:port, "auto", or None).
+      controller: "open_loop" (11 amplitudes) or "feedback" (`cpg_suite.feedback`).
     """
 
     tiers: tuple[str, ...] = protocol.TIERS
@@ -54,6 +56,7 @@ class ScoreSettings:
     threads: int = 2
     backend: str = "local"
     ray_address: str | None = None
+    controller: str = "open_loop"
 
     def __post_init__(self):
         tiers = tuple(self.tiers)
@@ -70,6 +73,7 @@ class ScoreSettings:
         cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
         cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
         cli.require_backend(self.backend)
+        cli.require_controller(self.controller)
 
 
 def _interval(values: np.ndarray, statistic) -> list[float]:
@@ -177,7 +181,12 @@ def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> dict:
     per_tier, sim_steps = {}, 0
     for tier in progress.track(settings.tiers, desc="tiers", unit="tier"):
         with ray_backend.open_evaluator(
-            tier, settings.steps, settings.threads, settings.backend, settings.ray_address
+            tier,
+            settings.steps,
+            settings.threads,
+            settings.backend,
+            settings.ray_address,
+            settings.controller,
         ) as evaluator:
             result = evaluator.evaluate(amplitudes, seeds, quality=True)
         per_tier[tier] = {
@@ -358,6 +367,7 @@ def define_flags() -> None:
     flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")
     flags.DEFINE_integer("threads", d.threads, "Evaluator threads (results do not depend on it).")
     cli.define_backend_flags()
+    flags.DEFINE_enum("controller", d.controller, list(cli.CONTROLLERS), "What --params holds.")
     flags.DEFINE_string("out", None, "Directory for score.json (default: print only).")
 
 
@@ -365,9 +375,15 @@ def main(argv):
     del argv
     settings = cli.settings_from_flags(ScoreSettings)
     try:
-        amplitudes = gait.parse_params(flags.FLAGS.params)
-    except ValueError as e:
-        raise cli.UsageError(str(e)) from None
+        if settings.controller == "feedback" and flags.FLAGS.params not in cpg.PRESETS:
+            cli.check(os.path.isfile(flags.FLAGS.params), f"no file --params={flags.FLAGS.params}")
+            amplitudes = feedback.load_params(flags.FLAGS.params)
+        elif settings.controller == "feedback":
+            amplitudes = feedback.start_params(flags.FLAGS.params)  # a preset, gains 0
+        else:
+            amplitudes = gait.parse_params(flags.FLAGS.params)
+    except (ValueError, json.JSONDecodeError) as e:
+        raise cli.UsageError(f"--params {flags.FLAGS.params}: {e}") from None
     card = {"params": flags.FLAGS.params, **score_gait(amplitudes, settings)}
     print(format_card(card))
     if flags.FLAGS.out:

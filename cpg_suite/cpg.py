@@ -331,15 +331,19 @@ class CPG:
             np.asarray(rates_deg, dtype=np.float64), self.roll_input.shape
         ).copy()
 
+    def _phases_at(self, t: float) -> np.ndarray:
+        """The phases the primitives are driven by: (2,) for all vectors (open loop)."""
+        return self.phases(t)
+
     def _rates(self, t: float) -> np.ndarray:
         cfg = self.config
-        basis = primitive_basis(self.phases(t), cfg.omega, cfg)  # (11, 12)
+        basis = primitive_basis(self._phases_at(t), cfg.omega, cfg)  # (11, 12) or (K, 11, 12)
         ramp = smoothstep(t / cfg.ramp_time) if cfg.ramp_time > 0 else 1.0
         # Σₚ Aₚ basisₚ in a fixed order (not a BLAS product, whose last bit depends on the
         # CPU's kernel).
         combined = np.zeros((len(self.amplitudes), basis.shape[-1]))
-        for p in range(basis.shape[0]):
-            combined += self.amplitudes[:, p, None] * basis[p]
+        for p in range(N_AMPLITUDES):
+            combined += self.amplitudes[:, p, None] * basis[..., p, :]
         rates = ramp * combined  # (K, 12)
         for leg in (0, 1):
             rates[:, 6 * leg + HROLL] += self.roll_input[:, leg]
@@ -355,10 +359,18 @@ class CPG:
         gain = (1.0 - decay) / cfg.beta if cfg.beta > 0 else h
         for _ in range(n):
             rates = self._rates(self.time + 0.5 * h)
+            self._advance_phases(self.time + 0.5 * h, h)
             self.z = self._offsets + (self.z - self._offsets) * decay + gain * rates
             self.time += h
-        targets = to_joint_angles(self.z)
+        targets = to_joint_angles(self._anatomical_targets())
         return targets[0] if self._single else targets
+
+    def _advance_phases(self, t: float, h: float) -> None:
+        """Phase feedback over a substep of `h` s at mid-time `t` (none in open loop)."""
+
+    def _anatomical_targets(self) -> np.ndarray:
+        """(K, 12) anatomical targets, degrees: z (open loop)."""
+        return self.z
 
 
 def trajectories(

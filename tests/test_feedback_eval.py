@@ -1,0 +1,92 @@
+"""The batched closed-loop evaluator equals stepping the environment, bit for bit."""
+
+import numpy as np
+import pytest
+
+from baselines import score
+from baselines.feedback_eval import FeedbackEvaluator, FeedbackPolicy
+from cpg_suite import cpg, feedback
+
+
+def _params(k=3):
+    rng = np.random.default_rng(4)
+    amplitudes = cpg.amplitudes_from("hand_tuned") + rng.normal(0, 2, (k, cpg.N_AMPLITUDES))
+    gains = rng.normal(0, 10, (k, feedback.N_GAINS))
+    gains[:, -1] = rng.uniform(0, 3, k)  # phase feedback
+    return np.concatenate([amplitudes, gains], axis=1)
+
+
+@pytest.mark.parametrize("tier", ["darwin_walk", "darwin_walk_randomized", "darwin_walk_push"])
+def test_batched_trials_equal_env_stepping_with_the_policy(tier):
+    params, seeds, steps = _params(), [0, 5], 250
+    with FeedbackEvaluator(tier, steps, threads=2) as evaluator:
+        batch = evaluator.evaluate(params, seeds, quality=True)
+    for k in range(len(params)):
+        for j, seed in enumerate(seeds):
+            trial = score.policy_trial(FeedbackPolicy(params[k]), tier, seed, steps)
+            assert batch.distance_m[k, j] == trial["distance_m"]
+            assert batch.lateral_m[k, j] == trial["lateral_m"]
+            assert batch.fall_step[k, j] == trial["fall_step"]
+            for field, value in trial["quality"].items():
+                assert np.array_equal(batch.quality[field][k, j], value, equal_nan=True), field
+
+
+def test_results_do_not_depend_on_threads_or_batch():
+    params = _params(4)
+    with FeedbackEvaluator("darwin_walk_rough", 200, threads=1) as one:
+        alone = one.evaluate(params[2], [7])
+    with FeedbackEvaluator("darwin_walk_rough", 200, threads=2) as two:
+        batch = two.evaluate(params, [3, 7])
+    assert batch.distance_m[2, 1] == alone.distance_m[0, 0]
+    assert batch.fall_step[2, 1] == alone.fall_step[0, 0]
+
+
+def test_bad_parameters_are_refused():
+    with FeedbackEvaluator("darwin_walk", 10) as evaluator:
+        with pytest.raises(ValueError, match="22 columns"):
+            evaluator.evaluate(np.zeros((2, 11)))
+
+
+def test_cmaes_tunes_the_feedback_cpg_and_its_card_is_reproducible(tmp_path):
+    import json
+
+    from baselines import cmaes, runs
+
+    settings = cmaes.CMAESSettings(
+        controller="feedback",
+        population=6,
+        rounds=2,
+        trial_steps=150,
+        validation_seeds=2,
+        test_seeds=2,
+    )
+    run_dir, summary = cmaes.run_cmaes(settings, runs.RunOptions(output_dir=str(tmp_path)))
+    assert run_dir.endswith("K6_s1_feedback_seed0")
+    chosen = feedback.load_params(f"{run_dir}/selected_params.json")
+    assert set(json.load(open(f"{run_dir}/selected_params.json"))["gains"]) == set(
+        feedback.GAIN_NAMES
+    )
+    card = score.score_gait(chosen, score.ScoreSettings(seeds=2, steps=150, controller="feedback"))
+    assert card["tiers"] == summary["test"]["tiers"]
+
+
+def test_feedback_on_ray_is_a_one_line_error(tmp_path):
+    import subprocess
+    import sys
+
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "baselines.cmaes",
+            "--controller=feedback",
+            "--backend=ray",
+            f"--output_dir={tmp_path}",
+            "--rounds=1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    errors = [line for line in out.stderr.splitlines() if line.startswith("error")]
+    assert out.returncode == 2 and len(errors) == 1 and "local" in errors[0], out.stderr
