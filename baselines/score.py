@@ -376,7 +376,11 @@ def main(argv):
     settings = cli.settings_from_flags(ScoreSettings)
     try:
         if settings.controller == "feedback" and flags.FLAGS.params not in cpg.PRESETS:
-            cli.check(os.path.isfile(flags.FLAGS.params), f"no file --params={flags.FLAGS.params}")
+            cli.check(
+                os.path.isfile(flags.FLAGS.params),
+                f"--params {flags.FLAGS.params!r} is neither a preset ({', '.join(cpg.PRESETS)}) "
+                "nor an existing JSON file",
+            )
             amplitudes = feedback.load_params(flags.FLAGS.params)
         elif settings.controller == "feedback":
             amplitudes = feedback.start_params(flags.FLAGS.params)  # a preset, gains 0

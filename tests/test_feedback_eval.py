@@ -90,3 +90,23 @@ def test_feedback_on_ray_is_a_one_line_error(tmp_path):
     )
     errors = [line for line in out.stderr.splitlines() if line.startswith("error")]
     assert out.returncode == 2 and len(errors) == 1 and "local" in errors[0], out.stderr
+
+
+def test_score_cli_refuses_a_missing_feedback_params_file(tmp_path):
+    import subprocess
+    import sys
+
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "baselines.score",
+            "--controller=feedback",
+            f"--params={tmp_path / 'none.json'}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    errors = [line for line in out.stderr.splitlines() if line.startswith("error")]
+    assert out.returncode == 2 and len(errors) == 1 and "hand_tuned" in errors[0], out.stderr
