@@ -35,6 +35,7 @@ import cpg_suite
 from baselines import quality as gait_quality
 from baselines.gait import DARWIN_TASKS
 from cpg_suite import cpg, darwin
+from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 _CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
@@ -54,30 +55,10 @@ class Episode:
     ctrl: np.ndarray | None = None  # the reset's actuator controls (the posture's targets)
 
 
-# The warnings after which dm_control declares the physics state invalid (PhysicsError).
-_INVALID_STATE_WARNINGS = tuple(
-    int(w)
-    for w in (
-        mujoco.mjtWarning.mjWARN_BADQACC,
-        mujoco.mjtWarning.mjWARN_BADQVEL,
-        mujoco.mjtWarning.mjWARN_BADQPOS,
-    )
-)
-
-
 def _sensor_slice(model: mujoco.MjModel, first: str, last: str) -> slice:
     """The `sensordata` range from sensor `first` to sensor `last`, inclusive."""
     a, b = model.sensor(first), model.sensor(last)
     return slice(int(a.adr[0]), int(b.adr[0] + b.dim[0]))
-
-
-def clear_invalid_state_warnings(data: mujoco.MjData) -> None:
-    for w in _INVALID_STATE_WARNINGS:
-        data.warning[w].number = 0
-
-
-def invalid_state(data: mujoco.MjData) -> bool:
-    return any(data.warning[w].number > 0 for w in _INVALID_STATE_WARNINGS)
 
 
 @dataclasses.dataclass

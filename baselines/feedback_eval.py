@@ -25,10 +25,9 @@ from baselines.batch_eval import (
     BatchEvaluator,
     BatchResult,
     Episode,
-    clear_invalid_state_warnings,
-    invalid_state,
 )
 from cpg_suite import cpg, darwin, feedback
+from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 
 _FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
 

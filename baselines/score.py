@@ -29,8 +29,8 @@ from scipy import stats
 import cpg_suite
 from baselines import cli, gait, progress, protocol, ray_backend, runs
 from baselines import quality as gait_quality
-from baselines.batch_eval import clear_invalid_state_warnings, invalid_state
 from cpg_suite import cpg, feedback
+from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 
 _BOOTSTRAP_RESAMPLES = 2000
 _BOOTSTRAP_SEED = 0

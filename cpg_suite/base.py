@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 
+import mujoco
 import numpy as np
 from dm_control.suite import base as suite_base
 from dm_env import specs
@@ -172,3 +173,25 @@ def check_discrete_action(action, spec: specs.DiscreteArray) -> int:
     if not 0 <= index < spec.num_values:
         raise ValueError(f"action {index} is out of range [0, {spec.num_values})")
     return index
+
+
+# The warnings after which dm_control declares the physics state invalid (PhysicsError).
+_INVALID_STATE_WARNINGS = tuple(
+    int(w)
+    for w in (
+        mujoco.mjtWarning.mjWARN_BADQACC,
+        mujoco.mjtWarning.mjWARN_BADQVEL,
+        mujoco.mjtWarning.mjWARN_BADQPOS,
+    )
+)
+
+
+def clear_invalid_state_warnings(data: mujoco.MjData) -> None:
+    """Zeroes the warning counters that `invalid_state` reads (before a step)."""
+    for w in _INVALID_STATE_WARNINGS:
+        data.warning[w].number = 0
+
+
+def invalid_state(data: mujoco.MjData) -> bool:
+    """Whether the step raised a warning after which dm_control raises `PhysicsError`."""
+    return any(data.warning[w].number > 0 for w in _INVALID_STATE_WARNINGS)

@@ -6,6 +6,10 @@
     observation, info = env.reset(seed=0)
 
 or, without the import, `gymnasium.make("cpg_suite.gym:cpg_suite/pole_balance-v0")`.
+The DARwIn-OP walking tiers have a vector entry point: `gymnasium.make_vec(
+"cpg_suite/darwin_walk-v0", num_envs=16)` returns `cpg_suite.vector.DarwinVectorEnv`
+(the physics of all sub-environments stepped in C threads; `vectorization_mode="sync"`
+gives Gymnasium's `SyncVectorEnv` over single environments instead).
 Needs the `gym` extra (`pip install 'cpg-suite[gym]'`). Observations are dicts of arrays,
 as in dm_env; episodes end as in the task (a fall terminates, the time limit truncates);
 `reset(seed=...)` seeds the task's random generator. Keyword arguments of `make` other
@@ -44,4 +48,12 @@ ENV_IDS = tuple(f"cpg_suite/{task_id}-v0" for task_id in cpg_suite.TASK_IDS)
 
 for _task_id, _env_id in zip(cpg_suite.TASK_IDS, ENV_IDS):
     if _env_id not in gymnasium.registry:
-        register(id=_env_id, entry_point="cpg_suite.gym:make_env", kwargs={"task_id": _task_id})
+        register(
+            id=_env_id,
+            entry_point="cpg_suite.gym:make_env",
+            # The walking tiers also vectorize natively (`cpg_suite.vector`).
+            vector_entry_point=(
+                "cpg_suite.vector:make_vector_env" if _task_id.startswith("darwin_walk") else None
+            ),
+            kwargs={"task_id": _task_id},
+        )

@@ -1,0 +1,321 @@
+"""N DARwIn-OP walking environments stepped in one call, as a Gymnasium vector env.
+
+    import gymnasium
+    import cpg_suite.gym  # registers cpg_suite/<task_id>-v0 with a vector entry point
+    envs = gymnasium.make_vec("cpg_suite/darwin_walk_randomized-v0", num_envs=16)
+    observations, infos = envs.reset(seed=0)  # sub-environment i seeded with 0 + i
+
+or `cpg_suite.vector.DarwinVectorEnv("darwin_walk_randomized", 16)`. Needs the `gym` extra.
+
+Each sub-environment is a `cpg_suite.load(task_id)` environment; its task draws the
+episode (initial posture, randomized physics, pushes, terrain) at reset exactly as the
+single environment does. A step then bypasses dm_control's per-environment Python: the
+actions become servo targets for all environments at once, the physics substeps of every
+environment run in C threads (`mujoco.mj_step`, which releases the GIL), and the
+observations, rewards, falls and time limits are read out as (N, ...) arrays. Each
+sub-environment takes the steps `control.Environment.step` takes (`mj_step` over the
+substeps, then `mj_step1` for the observation), so its transitions equal those of the
+Gymnasium environment `gymnasium.make("cpg_suite/<task_id>-v0")` reset with the same seed,
+bit for bit, for any thread count (`tests/test_vector_env.py`).
+
+Episodes end as in the single environment: a fall terminates, the time limit (1000
+control steps) truncates, and at the limit a fallen robot is truncated too (dm_control
+gives discount 1 there). Where dm_control would raise `PhysicsError` (an invalid physics
+state), the sub-environment terminates instead and `infos["physics_error"]` flags it.
+Autoreset follows Gymnasium's modes: next-step (the default, as `SyncVectorEnv`) or
+same-step (the final observation in `infos["final_obs"]`).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import os
+
+import gymnasium
+import mujoco
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+import cpg_suite
+from cpg_suite import base, darwin
+
+WALK_TASKS = tuple(t for t in cpg_suite.TASK_IDS if t.startswith("darwin_walk"))
+
+
+def _space(spec) -> gymnasium.spaces.Box:
+    """The Gymnasium box of a dm_env array spec (as shimmy converts it)."""
+    low = getattr(spec, "minimum", -np.inf)
+    high = getattr(spec, "maximum", np.inf)
+    return gymnasium.spaces.Box(
+        np.broadcast_to(low, spec.shape), np.broadcast_to(high, spec.shape), spec.shape, spec.dtype
+    )
+
+
+class DarwinVectorEnv(gymnasium.vector.VectorEnv):
+    """`num_envs` DARwIn-OP walking environments of one tier, stepped together."""
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(
+        self,
+        task_id: str = "darwin_walk",
+        num_envs: int = 1,
+        *,
+        threads: int | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        **task_kwargs,
+    ):
+        """Args:
+          task_id: A walking tier (`WALK_TASKS`).
+          num_envs: Number of sub-environments N.
+          threads: Threads stepping the physics (default: the usable CPUs, at most N);
+            results do not depend on it.
+          autoreset_mode: `AutoresetMode.NEXT_STEP` or `SAME_STEP` (or their values).
+          **task_kwargs: Passed to the task factory of every sub-environment (not
+            `random`: seed through `reset`).
+
+        Raises:
+          ValueError: On an unknown or non-walking task, N < 1, threads < 1, an
+            unsupported autoreset mode, or `random` among the task arguments.
+        """
+        if task_id not in WALK_TASKS:
+            raise ValueError(f"unknown walking task {task_id!r}; valid: {', '.join(WALK_TASKS)}")
+        if int(num_envs) < 1:
+            raise ValueError(f"num_envs must be ≥ 1, got {num_envs!r}")
+        if "random" in task_kwargs:
+            raise ValueError("seed the sub-environments through reset(seed=...), not random=")
+        mode = AutoresetMode(autoreset_mode)
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(f"autoreset_mode must be NextStep or SameStep, got {mode.value!r}")
+        threads = min(int(num_envs), len(os.sched_getaffinity(0))) if threads is None else threads
+        if int(threads) < 1:
+            raise ValueError(f"threads must be ≥ 1, got {threads!r}")
+        self.task_id, self.num_envs, self.threads = task_id, int(num_envs), int(threads)
+        self.autoreset_mode = mode
+        self.metadata = {**self.metadata, "autoreset_mode": mode}
+        self.envs = [cpg_suite.load(task_id, task_kwargs=task_kwargs) for _ in range(num_envs)]
+        first = self.envs[0]
+        self.single_observation_space = gymnasium.spaces.Dict(
+            {k: _space(s) for k, s in first.observation_spec().items()}
+        )
+        self.single_action_space = _space(first.action_spec())
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._layout(first.physics)
+        self.n_sub = int(round(first.control_timestep() / first.physics.timestep()))
+        self.step_limit = int(round(first._step_limit)) if np.isfinite(first._step_limit) else None
+        self.physics_steps = 0  # physics steps simulated so far, all sub-environments
+        self._steps = np.zeros(self.num_envs, dtype=np.int64)  # control steps this episode
+        self._done = np.zeros(self.num_envs, dtype=bool)
+        self._x = np.zeros(self.num_envs)  # torso x before the step
+        pool = concurrent.futures.ThreadPoolExecutor
+        self._pool = pool(self.threads) if self.threads > 1 else None
+
+    def _layout(self, physics: darwin.Physics) -> None:
+        """Addresses shared by every sub-environment (the tiers change no layout)."""
+        model = physics.model
+        address = {n: model.name2id(n, "joint") for n in ("root",) + darwin.cpg.LEG_JOINTS}
+        self._root_q = int(model.jnt_qposadr[address["root"]])
+        self._root_v = int(model.jnt_dofadr[address["root"]])
+        self._leg_q = np.array([model.jnt_qposadr[address[n]] for n in darwin.cpg.LEG_JOINTS])
+        self._leg_v = physics.leg_dofs()
+        self._leg_act = np.array([model.name2id(n, "actuator") for n in darwin.cpg.LEG_JOINTS])
+        self._leg_range = physics.leg_joint_range()
+        self._torso = physics.torso_body()
+
+        def sensor(name: str) -> slice:
+            i = model.name2id(name, "sensor")
+            return slice(int(model.sensor_adr[i]), int(model.sensor_adr[i] + model.sensor_dim[i]))
+
+        self._sensors = {
+            "torso_orientation": sensor("torso_orientation"),
+            "gyro": sensor("gyro"),
+            "accelerometer": sensor("accelerometer"),
+            "foot_touch": slice(sensor("touch_l").start, sensor("touch_r").stop),
+        }
+
+    # Gymnasium API.
+    def reset(self, *, seed: int | list | None = None, options: dict | None = None):
+        """Resets the sub-environments (all, or those in `options["reset_mask"]`).
+
+        Args:
+          seed: None (continue each task's random stream), an int s (sub-environment i
+            seeded with s + i) or a list of N seeds (None entries continue).
+          options: `{"reset_mask": (N,) bool}` resets only those.
+
+        Returns:
+          `(observations, infos)`.
+
+        Raises:
+          ValueError: On a seed list or mask of the wrong length.
+        """
+        super().reset(seed=seed if isinstance(seed, int) else None)
+        mask = np.ones(self.num_envs, dtype=bool)
+        if options and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=bool)
+            if mask.shape != (self.num_envs,):
+                raise ValueError(f"reset_mask must have shape ({self.num_envs},), got {mask.shape}")
+        seeds = _seeds(seed, self.num_envs)
+        for i in np.flatnonzero(mask):
+            self._reset_one(int(i), seeds[i])
+        return self._observations(), {}
+
+    def step(self, actions):
+        """Steps every sub-environment one control step (next-step mode: resets the done ones).
+
+        Args:
+          actions: (N, 12) normalized leg targets in [−1, 1] (clipped, as the task does).
+
+        Returns:
+          `(observations, rewards, terminations, truncations, infos)`.
+
+        Raises:
+          ValueError: On a wrong shape or a non-finite action.
+        """
+        actions = self._check(actions)
+        stepping = ~self._done if self.autoreset_mode == AutoresetMode.NEXT_STEP else None
+        if stepping is None:
+            stepping = np.ones(self.num_envs, dtype=bool)
+        else:
+            for i in np.flatnonzero(self._done):
+                self._reset_one(int(i), None)
+        rewards = np.zeros(self.num_envs)
+        terminated = np.zeros(self.num_envs, dtype=bool)
+        truncated = np.zeros(self.num_envs, dtype=bool)
+        errors = np.zeros(self.num_envs, dtype=bool)
+        active = np.flatnonzero(stepping)
+        if len(active):
+            errors[active] = self._physics_step(active, actions)
+            x = self._column(lambda d: d.xpos[self._torso, 0], active)
+            rewards[active] = x - self._x[active]
+            self._x[active] = x
+            self._steps[active] += 1
+            fallen = darwin.has_fallen(self._column(self._root, active)) | errors[active]
+            at_limit = (
+                self._steps[active] >= self.step_limit
+                if self.step_limit is not None
+                else np.zeros(len(active), bool)
+            )
+            truncated[active] = at_limit
+            terminated[active] = fallen & ~at_limit
+        self._done = terminated | truncated
+        observations = self._observations()
+        infos = {"physics_error": errors, "_physics_error": errors} if errors.any() else {}
+        if self.autoreset_mode == AutoresetMode.SAME_STEP and self._done.any():
+            infos.update(self._same_step_reset(observations))
+            observations = self._observations()
+            self._done[:] = False
+        return observations, rewards, terminated, truncated, infos
+
+    def close_extras(self, **kwargs) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+    # Internals.
+    def _reset_one(self, i: int, seed: int | None) -> None:
+        env = self.envs[i]
+        if seed is not None:
+            env.task.reseed(seed)
+        env.reset()
+        self._steps[i], self._done[i] = 0, False
+        self._x[i] = env.physics.data.xpos[self._torso, 0]
+
+    def _same_step_reset(self, observations: dict) -> dict:
+        done = self._done.copy()
+        final = np.empty(self.num_envs, dtype=object)
+        for i in np.flatnonzero(done):
+            final[i] = {k: v[i].copy() for k, v in observations.items()}
+            self._reset_one(int(i), None)
+        return {"final_obs": final, "_final_obs": done, "final_info": {}, "_final_info": done}
+
+    def _check(self, actions) -> np.ndarray:
+        try:
+            a = np.asarray(actions, dtype=np.float64)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"actions must be numeric with shape ({self.num_envs}, 12)") from e
+        if a.shape != (self.num_envs, 12):
+            raise ValueError(f"actions have shape {a.shape}, expected ({self.num_envs}, 12)")
+        if not np.isfinite(a).all():
+            raise ValueError("actions contain NaN or infinite values")
+        return np.clip(a, -1.0, 1.0)
+
+    def _physics_step(self, active: np.ndarray, actions: np.ndarray) -> np.ndarray:
+        """One control step of the `active` sub-environments; returns their invalid-state flags."""
+        low, high = self._leg_range[:, 0], self._leg_range[:, 1]
+        targets = low + (actions + 1.0) * 0.5 * (high - low)  # `Physics.action_to_targets`
+        for i in active:
+            env = self.envs[i]
+            data = env.physics.data
+            data.ctrl[self._leg_act] = targets[i]
+            if env.task.pushes is not None:
+                data.xfrc_applied[self._torso, :3] = darwin.perturbations.push_force(
+                    env.task.push_schedule, int(self._steps[i])
+                )
+        blocks = [active[k :: self.threads] for k in range(min(self.threads, len(active)))]
+        if self._pool is None:
+            flags = [self._step_block(b) for b in blocks]
+        else:
+            flags = list(self._pool.map(self._step_block, blocks))
+        errors = np.zeros(len(active), dtype=bool)
+        for k, block_flags in enumerate(flags):
+            errors[k :: self.threads] = block_flags
+        self.physics_steps += self.n_sub * len(active)
+        return errors
+
+    def _step_block(self, indices: np.ndarray) -> list[bool]:
+        """`control.Environment.step`'s physics for some sub-environments (one thread)."""
+        flags = []
+        for i in indices:
+            physics = self.envs[i].physics
+            model, data = physics.model.ptr, physics.data.ptr
+            base.clear_invalid_state_warnings(data)
+            mujoco.mj_step(model, data, nstep=self.n_sub)
+            bad = base.invalid_state(data)
+            if not bad:
+                mujoco.mj_step1(model, data)
+            flags.append(bad)
+        return flags
+
+    def _root(self, data) -> np.ndarray:
+        return data.qpos[self._root_q : self._root_q + 7]
+
+    def _column(self, read, indices=None) -> np.ndarray:
+        indices = range(self.num_envs) if indices is None else indices
+        return np.array([read(self.envs[i].physics.data) for i in indices])
+
+    def _observations(self) -> dict[str, np.ndarray]:
+        """`CPGTask.get_observation` for every sub-environment, as (N, ...) arrays."""
+        datas = [env.physics.data for env in self.envs]
+        qpos = np.array([d.qpos for d in datas])
+        qvel = np.array([d.qvel for d in datas])
+        sensors = np.array([d.sensordata for d in datas])
+        s = self._sensors
+        return {
+            "joint_angles": qpos[:, self._leg_q],
+            "joint_velocities": qvel[:, self._leg_v],
+            "torso_orientation": sensors[:, s["torso_orientation"]],
+            "torso_height": np.array([d.xpos[self._torso, 2] for d in datas])[:, None],
+            "torso_velocity": qvel[:, self._root_v : self._root_v + 3],
+            "gyro": sensors[:, s["gyro"]],
+            "accelerometer": sensors[:, s["accelerometer"]],
+            "foot_touch": sensors[:, s["foot_touch"]],
+        }
+
+
+def _seeds(seed, n: int) -> list:
+    if seed is None:
+        return [None] * n
+    if isinstance(seed, (int, np.integer)):
+        return [int(seed) + i for i in range(n)]
+    seeds = list(seed)
+    if len(seeds) != n:
+        raise ValueError(f"need {n} seeds, got {len(seeds)}")
+    return seeds
+
+
+def make_vector_env(num_envs: int, task_id: str, **kwargs) -> DarwinVectorEnv:
+    """The vector entry point of the Gymnasium registration (`gymnasium.make_vec`)."""
+    kwargs.pop("max_episode_steps", None)  # the task's own time limit applies
+    return DarwinVectorEnv(task_id, num_envs, **kwargs)
