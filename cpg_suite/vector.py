@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import os
+from collections.abc import Iterator
 
 import gymnasium
 import mujoco
@@ -64,6 +65,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         *,
         threads: int | None = None,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        episode_seeds: Iterator[int] | None = None,
         **task_kwargs,
     ):
         """Args:
@@ -72,6 +74,8 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
           threads: Threads stepping the physics (default: the usable CPUs, at most N);
             results do not depend on it.
           autoreset_mode: `AutoresetMode.NEXT_STEP` or `SAME_STEP` (or their values).
+          episode_seeds: Each autoreset seeds its episode with the next of these (e.g. a
+            learner's training seeds); None: the task's random stream goes on.
           **task_kwargs: Passed to the task factory of every sub-environment (not
             `random`: seed through `reset`).
 
@@ -93,6 +97,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             raise ValueError(f"threads must be ≥ 1, got {threads!r}")
         self.task_id, self.num_envs, self.threads = task_id, int(num_envs), int(threads)
         self.autoreset_mode = mode
+        self._episode_seeds = episode_seeds
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.envs = [cpg_suite.load(task_id, task_kwargs=task_kwargs) for _ in range(num_envs)]
         first = self.envs[0]
@@ -179,7 +184,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             stepping = np.ones(self.num_envs, dtype=bool)
         else:
             for i in np.flatnonzero(self._done):
-                self._reset_one(int(i), None)
+                self._reset_one(int(i), self._next_seed())
         rewards = np.zeros(self.num_envs)
         terminated = np.zeros(self.num_envs, dtype=bool)
         truncated = np.zeros(self.num_envs, dtype=bool)
@@ -222,12 +227,15 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self._steps[i], self._done[i] = 0, False
         self._x[i] = env.physics.data.xpos[self._torso, 0]
 
+    def _next_seed(self) -> int | None:
+        return None if self._episode_seeds is None else int(next(self._episode_seeds))
+
     def _same_step_reset(self, observations: dict) -> dict:
         done = self._done.copy()
         final = np.empty(self.num_envs, dtype=object)
         for i in np.flatnonzero(done):
             final[i] = {k: v[i].copy() for k, v in observations.items()}
-            self._reset_one(int(i), None)
+            self._reset_one(int(i), self._next_seed())
         return {"final_obs": final, "_final_obs": done, "final_info": {}, "_final_info": done}
 
     def _check(self, actions) -> np.ndarray:
