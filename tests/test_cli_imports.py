@@ -19,13 +19,16 @@ _MODULES = (
     "baselines.nac_experiments",
     "cpg_suite.render",
     "baselines.gait",
+    "baselines.ppo",
+    "cpg_suite.vector",
+    "cpg_suite.residual",
 )
 
 _CODE = r"""
 import importlib, json, os
 from absl import flags
 # Third-party import-time effects are not ours: import them first.
-import dm_control.suite, mujoco, pandas, tqdm  # noqa
+import dm_control.suite, mujoco, pandas, tqdm, gymnasium, torch, stable_baselines3  # noqa
 flags_before, environ_before = set(flags.FLAGS), dict(os.environ)
 for name in MODULES:
     importlib.import_module(name)

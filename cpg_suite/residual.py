@@ -1,0 +1,233 @@
+"""A CPG action space: a policy modulates the study's CPG every control step.
+
+Beyond the study (docs/decisions.md#ppo). A policy's action (12,) in [−1, 1] is read as
+
+* 11 amplitude corrections: Aₚ = A⁰ₚ + `amplitude_scale` · aₚ degrees, around the
+  hand-tuned amplitudes A⁰ (`cpg.PRESETS["hand_tuned"]`, thesis Table 6.1);
+* 1 phase-rate correction: φ̇ = ω (1 + `rate_scale` · a₁₁) for both legs (the right leg
+  stays half a cycle behind).
+
+The corrections act on the pattern generators' rates (Eq. 5.2), so the joint targets stay
+continuous and are low-pass filtered by the relaxation term, as the open-loop CPG's are.
+Action 0 is the hand-tuned open-loop gait: `ModulatedCPG` with zero corrections gives the
+targets of `cpg.CPG(hand_tuned)` bit for bit (`tests/test_ppo.py`).
+
+`ModulatedCPG` is a `cpg.CPG` with one row per sub-environment, each with its own time and
+phase, so a row restarts (`reset_rows`) when its episode ends. `CPGActions` is the action
+space as a Gymnasium vector wrapper over `cpg_suite.vector.DarwinVectorEnv` (same-step
+autoreset): it maps the policy's actions to joint-target actions and adds the left leg's
+phase (cos φ_L, sin φ_L) to the observations as `"cpg_phase"`.
+"""
+
+from __future__ import annotations
+
+import gymnasium
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from cpg_suite import cpg, darwin
+
+AMPLITUDE_SCALE = 10.0  # degrees of amplitude correction per unit action
+RATE_SCALE = 0.5  # phase rate ω (1 + RATE_SCALE · a), a in [−1, 1]: 0.5 ω .. 1.5 ω
+N_ACTIONS = cpg.N_AMPLITUDES + 1
+PHASE_KEY = "cpg_phase"
+
+
+class ModulatedCPG(cpg.CPG):
+    """K independent CPG rows whose amplitudes and phase rate are set before each step.
+
+    Each row has its own time (`self.time`, shape (K,)) and a phase deviation δ (K,) that
+    the phase-rate correction accumulates: φ_L = φ_L⁰(t) + δ, δ̇ = (rate − 1) ω. With every
+    correction 0, δ stays exactly 0, and each row's arithmetic is that of `cpg.CPG`.
+    """
+
+    def __init__(
+        self,
+        rows: int,
+        amplitudes="hand_tuned",
+        config: cpg.CPGConfig | None = None,
+        *,
+        amplitude_scale: float = AMPLITUDE_SCALE,
+        rate_scale: float = RATE_SCALE,
+    ):
+        """Args:
+          rows: K ≥ 1 rows (sub-environments).
+          amplitudes: The nominal 11 amplitudes, degrees (or a preset name): action 0.
+          config: CPG constants (default `cpg.CPGConfig()`).
+          amplitude_scale: Degrees of amplitude correction per unit action.
+          rate_scale: Relative phase-rate correction per unit action (< 1 keeps φ̇ > 0).
+
+        Raises:
+          ValueError: On K < 1, bad amplitudes, a negative scale or rate_scale ≥ 1.
+        """
+        if int(rows) < 1:
+            raise ValueError(f"rows must be ≥ 1, got {rows!r}")
+        if not amplitude_scale >= 0 or not 0 <= rate_scale < 1:
+            raise ValueError(
+                f"need amplitude_scale ≥ 0 and 0 ≤ rate_scale < 1, got {amplitude_scale}, "
+                f"{rate_scale}"
+            )
+        self.nominal = cpg.amplitudes_from(amplitudes)
+        self.amplitude_scale, self.rate_scale = float(amplitude_scale), float(rate_scale)
+        super().__init__(np.tile(self.nominal, (int(rows), 1)), config)
+
+    @property
+    def rows(self) -> int:
+        return len(self.amplitudes)
+
+    def reset(self) -> None:
+        """Every row: t = 0, z = O, δ = 0, the nominal amplitudes and rate."""
+        super().reset()
+        k = len(self.amplitudes)
+        self.time = np.zeros(k)
+        self.delta = np.zeros(k)
+        self.rate = np.ones(k)
+        self.amplitudes = np.tile(self.nominal, (k, 1))
+
+    def reset_rows(self, mask) -> None:
+        """Restarts the rows where `mask` ((K,) bool) is set, as `reset` does."""
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != (self.rows,):
+            raise ValueError(f"mask must have shape ({self.rows},), got {m.shape}")
+        self.time[m] = 0.0
+        self.delta[m] = 0.0
+        self.rate[m] = 1.0
+        self.z[m] = self._offsets
+        self.roll_input[m] = 0.0
+        self.amplitudes[m] = self.nominal
+
+    def modulate(self, actions) -> None:
+        """Sets each row's amplitudes and phase rate from (K, 12) actions (clipped to [−1, 1])."""
+        a = np.clip(np.asarray(actions, dtype=np.float64), -1.0, 1.0)
+        if a.shape != (self.rows, N_ACTIONS):
+            raise ValueError(f"actions have shape {a.shape}, expected ({self.rows}, {N_ACTIONS})")
+        self.amplitudes = self.nominal + self.amplitude_scale * a[:, : cpg.N_AMPLITUDES]
+        self.rate = 1.0 + self.rate_scale * a[:, cpg.N_AMPLITUDES]
+
+    def left_phase(self) -> np.ndarray:
+        """φ_L of every row now, rad (unwrapped), (K,)."""
+        return self.config.initial_phase + self.config.omega * self.time + self.delta
+
+    def phase_features(self) -> np.ndarray:
+        """(K, 2): cos φ_L, sin φ_L."""
+        phi = self.left_phase()
+        return np.stack([np.cos(phi), np.sin(phi)], axis=-1)
+
+    # Hooks of `cpg.CPG.step`, with a time per row.
+    def _phases_at(self, t) -> np.ndarray:
+        left = self.config.initial_phase + self.config.omega * t + self.delta
+        return np.stack([left, left - np.pi], axis=-1)  # (K, 2)
+
+    def _rates(self, t) -> np.ndarray:
+        cfg = self.config
+        omega = cfg.omega * self.rate  # (K,): φ̇ of each row
+        basis = cpg.primitive_basis(self._phases_at(t), omega, cfg)  # (K, 11, 12)
+        if cfg.ramp_time > 0:
+            ramp = cpg.smoothstep(t / cfg.ramp_time)
+        else:
+            ramp = np.ones(self.rows)
+        combined = np.zeros((self.rows, basis.shape[-1]))
+        for p in range(cpg.N_AMPLITUDES):  # the order of `cpg.CPG._rates`
+            combined += self.amplitudes[:, p, None] * basis[..., p, :]
+        rates = ramp[:, None] * combined
+        for leg in (0, 1):
+            rates[:, 6 * leg + cpg.HROLL] += self.roll_input[:, leg]
+            rates[:, 6 * leg + cpg.AROLL] += self.roll_input[:, leg]
+        return rates
+
+    def _advance_phases(self, t, h: float) -> None:
+        self.delta = self.delta + (self.rate - 1.0) * self.config.omega * h
+
+
+class CPGActions(gymnasium.vector.VectorWrapper):
+    """The CPG action space over a `DarwinVectorEnv` in same-step autoreset mode.
+
+    Each step: the policy's (N, 12) actions modulate the CPG rows (`ModulatedCPG.modulate`),
+    the CPG advances one control step, and its joint targets become the environment's
+    normalized actions. Rows whose episode ended restart with their sub-environment. The
+    observations gain `"cpg_phase"` (cos φ_L, sin φ_L), also in `infos["final_obs"]`.
+    """
+
+    def __init__(
+        self,
+        env: gymnasium.vector.VectorEnv,
+        *,
+        amplitudes="hand_tuned",
+        amplitude_scale: float = AMPLITUDE_SCALE,
+        rate_scale: float = RATE_SCALE,
+        config: cpg.CPGConfig | None = None,
+    ):
+        """Args:
+          env: A `DarwinVectorEnv` (or a wrapper of one) with `AutoresetMode.SAME_STEP`.
+          amplitudes, amplitude_scale, rate_scale, config: As for `ModulatedCPG`.
+
+        Raises:
+          ValueError: On another autoreset mode, or bad CPG arguments.
+        """
+        super().__init__(env)
+        if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
+            raise ValueError("CPGActions needs a vector env with AutoresetMode.SAME_STEP")
+        self.cpg = ModulatedCPG(
+            env.num_envs,
+            amplitudes,
+            config,
+            amplitude_scale=amplitude_scale,
+            rate_scale=rate_scale,
+        )
+        self._physics = env.unwrapped.envs[0].physics  # for `targets_to_action`
+        self._dt = float(env.unwrapped.envs[0].control_timestep())
+        self.single_action_space = gymnasium.spaces.Box(-1.0, 1.0, (N_ACTIONS,), np.float64)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        spaces = dict(env.single_observation_space.spaces)
+        spaces[PHASE_KEY] = gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float64)
+        self.single_observation_space = gymnasium.spaces.Dict(spaces)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+
+    def reset(self, *, seed=None, options=None):
+        observations, infos = self.env.reset(seed=seed, options=options)
+        mask = np.ones(self.num_envs, dtype=bool)
+        if options and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=bool)
+        self.cpg.reset_rows(mask)
+        return self._with_phase(observations), infos
+
+    def step(self, actions):
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != (self.num_envs, N_ACTIONS) or not np.isfinite(a).all():
+            raise ValueError(
+                f"actions must be finite with shape ({self.num_envs}, {N_ACTIONS}), got {a.shape}"
+            )
+        self.cpg.modulate(a)
+        targets = self.cpg.step(self._dt)
+        joint_actions = self._physics.targets_to_action(targets)
+        observations, rewards, terminated, truncated, infos = self.env.step(joint_actions)
+        done = np.asarray(terminated) | np.asarray(truncated)
+        if done.any():
+            features = self.cpg.phase_features()
+            if "final_obs" in infos:
+                final = infos["final_obs"].copy()
+                for i in np.flatnonzero(done):
+                    final[i] = {**final[i], PHASE_KEY: features[i].copy()}
+                infos = {**infos, "final_obs": final}
+            self.cpg.reset_rows(done)
+        return self._with_phase(observations), rewards, terminated, truncated, infos
+
+    def _with_phase(self, observations: dict) -> dict:
+        return {**observations, PHASE_KEY: self.cpg.phase_features()}
+
+
+def joint_actions(cpg_actions, modulated: ModulatedCPG, physics: darwin.Physics, dt: float):
+    """One control step of the CPG action space outside a vector env (one row per call).
+
+    Args:
+      cpg_actions: (K, 12) policy actions.
+      modulated: The CPG rows (advanced by `dt`).
+      physics: Any DARwIn-OP physics (its joint ranges).
+      dt: Control step, s.
+
+    Returns:
+      (K, 12) normalized joint-target actions.
+    """
+    modulated.modulate(cpg_actions)
+    return physics.targets_to_action(modulated.step(dt))

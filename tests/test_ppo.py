@@ -1,0 +1,261 @@
+"""PPO (`baselines.ppo`) and its CPG action space (`cpg_suite.residual`): real SB3 and torch."""
+
+import csv
+import dataclasses
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import cpg_suite
+from analysis import leaderboard
+from baselines import ppo, protocol, runs, score
+from cpg_suite import cpg, darwin, residual, vector
+
+
+def _settings(**kw) -> ppo.PPOSettings:
+    base = dict(
+        total_steps=512,
+        num_envs=2,
+        n_steps=64,
+        batch_size=64,
+        n_epochs=2,
+        trial_steps=30,
+        validation_every=256,
+        validation_seeds=2,
+        test_seeds=1,
+        test_tiers=("darwin_walk",),
+        net_arch=(16, 16),
+    )
+    base.update(kw)
+    return ppo.PPOSettings(**base)
+
+
+def _options(tmp_path, **kw) -> runs.RunOptions:
+    return runs.RunOptions(output_dir=str(tmp_path), threads=1, **kw)
+
+
+def _quiet(line: str) -> None:
+    del line
+
+
+# The CPG action space.
+def test_zero_corrections_give_the_open_loop_cpg_bit_for_bit():
+    reference = cpg.CPG("hand_tuned")
+    modulated = residual.ModulatedCPG(3)
+    for _ in range(120):  # past the 1.1 s start-up ramp
+        expected = reference.step(darwin.CONTROL_TIMESTEP)
+        modulated.modulate(np.zeros((3, residual.N_ACTIONS)))
+        got = modulated.step(darwin.CONTROL_TIMESTEP)
+        assert np.array_equal(got, np.tile(expected, (3, 1)))
+
+
+def test_rows_are_independent_and_reset_alone():
+    rng = np.random.default_rng(0)
+    modulated = residual.ModulatedCPG(2)
+    reference, fresh = cpg.CPG("hand_tuned"), cpg.CPG("hand_tuned")
+    for t in range(40):
+        if t == 25:
+            modulated.reset_rows(np.array([False, True]))
+        actions = np.zeros((2, residual.N_ACTIONS))
+        actions[0] = rng.uniform(-1, 1, residual.N_ACTIONS)  # row 0 is modulated
+        modulated.modulate(actions)
+        got = modulated.step(darwin.CONTROL_TIMESTEP)
+        expected = (reference if t < 25 else fresh).step(darwin.CONTROL_TIMESTEP)
+        assert np.array_equal(got[1], expected)
+    assert not np.array_equal(got[0], got[1])
+    assert modulated.time[1] == pytest.approx(15 * darwin.CONTROL_TIMESTEP)
+    assert modulated.time[0] == pytest.approx(40 * darwin.CONTROL_TIMESTEP)
+
+
+def test_phase_rate_correction():
+    modulated = residual.ModulatedCPG(2)
+    actions = np.zeros((2, residual.N_ACTIONS))
+    actions[0, -1], actions[1, -1] = 1.0, -1.0
+    for _ in range(50):
+        modulated.modulate(actions)
+        modulated.step(darwin.CONTROL_TIMESTEP)
+    advance = modulated.left_phase() - modulated.config.initial_phase
+    nominal = modulated.config.omega * 50 * darwin.CONTROL_TIMESTEP
+    assert advance == pytest.approx([1.5 * nominal, 0.5 * nominal])
+    phase = modulated.left_phase()
+    assert np.array_equal(modulated.phase_features(), np.stack([np.cos(phase), np.sin(phase)], 1))
+
+
+def test_cpg_wrapper_with_zero_actions_walks_the_hand_tuned_gait():
+    settings = _settings(action_space="cpg", trial_steps=1000)
+    env = ppo.make_vector_env(settings, 2, threads=1)
+    plain = vector.DarwinVectorEnv("darwin_walk", 2, threads=1, autoreset_mode="SameStep")
+    reference = cpg.CPG("hand_tuned")  # the open-loop gait, stepped
+    physics = cpg_suite.load("darwin_walk").physics
+    obs, _ = env.reset(seed=7)
+    expected, _ = plain.reset(seed=7)
+    assert np.allclose(obs[residual.PHASE_KEY], [[-1.0, 0.0]] * 2)  # φ_L(0) = π
+    for t in range(40):
+        obs, *_ = env.step(np.zeros((2, residual.N_ACTIONS)))
+        action = physics.targets_to_action(reference.step(darwin.CONTROL_TIMESTEP))
+        expected, *_ = plain.step(np.tile(action, (2, 1)))
+        for key, value in expected.items():
+            assert np.array_equal(obs[key], value), (t, key)
+
+
+# The SB3 adapter.
+@pytest.mark.parametrize("action_space, size", [("joints", 40), ("cpg", 42)])
+def test_flat_vec_env_terminal_observation_and_truncation(action_space, size):
+    settings = _settings(action_space=action_space, trial_steps=5)
+    flat = ppo.FlatVecEnv(ppo.make_vector_env(settings, 2, threads=1))
+    reference = ppo.make_vector_env(settings, 2, threads=1)  # the same env, dicts unflattened
+    assert flat.observation_space.shape == (size,)
+    flat.seed(3)
+    obs = flat.reset()
+    ref_obs, _ = reference.reset(seed=3)
+    keys = ppo.observation_keys(reference.single_observation_space)
+    assert np.array_equal(obs, ppo.flatten(ref_obs, keys))
+    assert np.array_equal(obs[0], ppo.flatten_one({k: v[0] for k, v in ref_obs.items()}, keys))
+    actions = np.zeros((2, flat.action_space.shape[0]))
+    for t in range(5):
+        flat.step_async(actions)
+        obs, rewards, dones, infos = flat.step_wait()
+        ref_obs, ref_rewards, terminated, truncated, extra = reference.step(actions)
+        assert np.array_equal(rewards, ref_rewards)
+        assert np.array_equal(obs, ppo.flatten(ref_obs, keys))
+        if t < 4:
+            assert not dones.any() and infos == [{}, {}]
+    assert dones.all() and truncated.all() and not terminated.any()
+    for i, info in enumerate(infos):
+        assert info["TimeLimit.truncated"] and not info["fell"]
+        assert np.array_equal(
+            info["terminal_observation"], ppo.flatten_one(extra["final_obs"][i], keys)
+        )
+        assert not np.array_equal(info["terminal_observation"], obs[i])  # obs: the next episode
+        assert info["episode"]["l"] == 5
+    episodes = flat.drain_episodes()
+    assert len(episodes) == 2 and flat.drain_episodes() == []
+    assert flat.physics_steps == 2 * 5 * 8
+
+
+# Runs.
+def _rows(run_dir):
+    with open(os.path.join(run_dir, "progress.csv"), encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    return [{k: v for k, v in r.items() if k not in ("steps_per_s", "wall_s")} for r in rows]
+
+
+def _without_wall(summary):
+    return {k: v for k, v in summary.items() if k != "wall_s"}
+
+
+def test_joints_run_files_leaderboard_row_and_policy(tmp_path):
+    import torch
+
+    settings = _settings(action_space="joints")
+    threads = torch.get_num_threads()
+    run_dir, summary = ppo.run(settings, _options(tmp_path), log=_quiet)
+    assert torch.get_num_threads() == threads  # one thread inside the run only
+    assert run_dir == os.path.join(str(tmp_path), "ppo", "darwin_walk", "joints_seed0")
+    for name in (
+        "config.json",
+        "progress.csv",
+        "checkpoint.pkl",
+        "summary.json",
+        "selected_model.zip",
+        "selected_vecnormalize.pkl",
+        "final_model.zip",
+    ):
+        assert os.path.isfile(os.path.join(run_dir, name)), name
+    rows = _rows(run_dir)
+    assert [int(r["env_steps"]) for r in rows] == [256, 512]
+    assert summary["env_steps"] == 512 and summary["sim_steps"] == 512 * 8
+    assert summary["validation_sim_steps"] > 0
+    assert set(summary["test"]["tiers"]) == {"darwin_walk"}
+    assert runs.read_json(os.path.join(run_dir, "summary.json"))["test"] == summary["test"]
+    found, skipped = leaderboard.find_runs(str(tmp_path))
+    rows = leaderboard.darwin_rows(found)
+    assert not skipped and len(rows) == 1
+    row = rows[0]
+    assert (row["method"], row["config"], row["training_task"]) == ("ppo", "joints", "darwin_walk")
+    assert row["budget_sim_steps"] == summary["sim_steps"] + summary["validation_sim_steps"]
+    # The saved policy scores what the run's validation measured (step by step vs vectorized).
+    policy = ppo.PPOPolicy.load(run_dir)
+    trial = score.policy_trial(policy, "darwin_walk", protocol.VALIDATION.start, 30)
+    env = ppo.make_vector_env(settings, 1, threads=1)
+    value, _, _ = ppo.validate(
+        policy.model, policy.normalizer, env, dataclasses.replace(settings, validation_seeds=1)
+    )
+    assert trial["distance_m"] * (not trial["fell"]) == pytest.approx(value, abs=1e-9)
+
+
+def test_cpg_run_killed_after_a_checkpoint_resumes_to_the_same_result(tmp_path):
+    settings = _settings(action_space="cpg")
+    straight_dir, straight = ppo.run(settings, _options(tmp_path / "a"), log=_quiet)
+
+    class Killed(Exception):
+        pass
+
+    def kill(totals):
+        raise Killed(totals["env_steps"])
+
+    with pytest.raises(Killed):
+        ppo.run(settings, _options(tmp_path / "b"), log=_quiet, on_checkpoint=kill)
+    run_dir = os.path.join(str(tmp_path / "b"), "ppo", "darwin_walk", "cpg_seed0")
+    assert not os.path.exists(os.path.join(run_dir, "summary.json"))
+    assert [int(r["env_steps"]) for r in _rows(run_dir)] == [256]
+    with pytest.raises(runs.RunDirectoryExists):
+        ppo.run(settings, _options(tmp_path / "b"), log=_quiet)
+    resumed_dir, resumed = ppo.run(settings, _options(tmp_path / "b", resume=True), log=_quiet)
+    assert _rows(resumed_dir) == _rows(straight_dir)
+    assert [int(r["env_steps"]) for r in _rows(resumed_dir)] == [256, 512]
+    assert _without_wall(resumed) == _without_wall(straight)
+    assert resumed["env_steps"] == 512 and resumed["sim_steps"] == 512 * 8
+    # Another configuration cannot resume from this checkpoint.
+    with open(os.path.join(run_dir, "summary.json"), "rb") as f:
+        summary_bytes = f.read()
+    os.remove(os.path.join(run_dir, "summary.json"))
+    foreign = dataclasses.replace(settings, learning_rate=1e-3)
+    with pytest.raises(ppo.CheckpointError, match="another configuration"):
+        ppo.run(foreign, _options(tmp_path / "b", resume=True, run_name="cpg_seed0"), log=_quiet)
+    assert summary_bytes
+
+
+def test_settings_are_checked():
+    for kw, words in [
+        ({"action_space": "torques"}, "--action_space"),
+        ({"task": "darwin_run"}, "unknown --task"),
+        ({"total_steps": 0}, "--total_steps"),
+        ({"test_tiers": ("darwin_fly",)}, "--test_tiers"),
+        ({"rate_scale": 1.0}, "--rate_scale"),
+        ({"net_arch": ("a",)}, "--net_arch"),
+    ]:
+        with pytest.raises(ValueError, match=words):
+            _settings(**kw)
+
+
+def _cli(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "baselines.ppo", *args], capture_output=True, text=True, timeout=300
+    )
+
+
+def test_cli_bad_input_is_one_line_exit_2(tmp_path):
+    out = _cli("--action_space=torques", f"--output_dir={tmp_path}")
+    assert out.returncode == 2, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "--action_space" in lines[0]
+    existing = tmp_path / "ppo" / "darwin_walk" / "cpg_seed0"
+    existing.mkdir(parents=True)
+    (existing / "config.json").write_text("{}")
+    out = _cli("--action_space=cpg", f"--output_dir={tmp_path}")
+    assert out.returncode == 2, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--overwrite" in lines[0] and "--resume" in lines[0]
+
+
+def test_import_changes_no_torch_threads():
+    code = (
+        "import torch; n = torch.get_num_threads(); import baselines.ppo; "
+        "assert torch.get_num_threads() == n; print('ok')"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0 and "ok" in out.stdout, out.stderr
