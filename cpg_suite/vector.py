@@ -108,6 +108,14 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._layout(first.physics)
+        self._models = [env.physics.model.ptr for env in self.envs]
+        self._datas = [env.physics.data.ptr for env in self.envs]
+        self._obs = {
+            key: np.zeros((self.num_envs,) + space.shape)
+            for key, space in self.single_observation_space.items()
+        }
+        self._root = np.zeros((self.num_envs, 7))  # the free joint's qpos
+        self._torso_x = np.zeros(self.num_envs)
         self.n_sub = int(round(first.control_timestep() / first.physics.timestep()))
         self.step_limit = int(round(first._step_limit)) if np.isfinite(first._step_limit) else None
         self.physics_steps = 0  # physics steps simulated so far, all sub-environments
@@ -115,7 +123,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self._done = np.zeros(self.num_envs, dtype=bool)
         self._x = np.zeros(self.num_envs)  # torso x before the step
         pool = concurrent.futures.ThreadPoolExecutor
-        self._pool = pool(self.threads) if self.threads > 1 else None
+        self._pool = pool(self.threads - 1) if self.threads > 1 else None
 
     def _layout(self, physics: darwin.Physics) -> None:
         """Addresses shared by every sub-environment (the tiers change no layout)."""
@@ -192,11 +200,11 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         active = np.flatnonzero(stepping)
         if len(active):
             errors[active] = self._physics_step(active, actions)
-            x = self._column(lambda d: d.xpos[self._torso, 0], active)
+            x = self._torso_x[active]
             rewards[active] = x - self._x[active]
             self._x[active] = x
             self._steps[active] += 1
-            fallen = darwin.has_fallen(self._column(self._root, active)) | errors[active]
+            fallen = darwin.has_fallen(self._root[active]) | errors[active]
             at_limit = (
                 self._steps[active] >= self.step_limit
                 if self.step_limit is not None
@@ -225,7 +233,8 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             env.task.reseed(seed)
         env.reset()
         self._steps[i], self._done[i] = 0, False
-        self._x[i] = env.physics.data.xpos[self._torso, 0]
+        self._read(i)
+        self._x[i] = self._torso_x[i]
 
     def _next_seed(self) -> int | None:
         return None if self._episode_seeds is None else int(next(self._episode_seeds))
@@ -253,63 +262,63 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         """One control step of the `active` sub-environments; returns their invalid-state flags."""
         low, high = self._leg_range[:, 0], self._leg_range[:, 1]
         targets = low + (actions + 1.0) * 0.5 * (high - low)  # `Physics.action_to_targets`
+        work = []
         for i in active:
-            env = self.envs[i]
-            data = env.physics.data
-            data.ctrl[self._leg_act] = targets[i]
-            if env.task.pushes is not None:
-                data.xfrc_applied[self._torso, :3] = darwin.perturbations.push_force(
-                    env.task.push_schedule, int(self._steps[i])
-                )
-        blocks = [active[k :: self.threads] for k in range(min(self.threads, len(active)))]
-        if self._pool is None:
-            flags = [self._step_block(b) for b in blocks]
-        else:
-            flags = list(self._pool.map(self._step_block, blocks))
+            task = self.envs[i].task
+            push = None
+            if task.pushes is not None:
+                push = darwin.perturbations.push_force(task.push_schedule, int(self._steps[i]))
+            work.append((int(i), targets[i], push))
+        blocks = [work[k :: self.threads] for k in range(min(self.threads, len(work)))]
+        # The calling thread steps the first block while the pool steps the others.
+        futures = [self._pool.submit(self._step_block, b) for b in blocks[1:]]
+        flags = [self._step_block(blocks[0])] + [f.result() for f in futures]
         errors = np.zeros(len(active), dtype=bool)
         for k, block_flags in enumerate(flags):
             errors[k :: self.threads] = block_flags
         self.physics_steps += self.n_sub * len(active)
         return errors
 
-    def _step_block(self, indices: np.ndarray) -> list[bool]:
-        """`control.Environment.step`'s physics for some sub-environments (one thread)."""
+    def _step_block(self, work: list) -> list[bool]:
+        """`control.Environment.step` for some sub-environments, in one thread: the servo
+        targets and push, the substeps (`mj_step`, the GIL released), `mj_step1`, and the
+        state the observations are read from."""
         flags = []
-        for i in indices:
-            physics = self.envs[i].physics
-            model, data = physics.model.ptr, physics.data.ptr
-            base.clear_invalid_state_warnings(data)
+        for i, targets, push in work:
+            model, data = self._models[i], self._datas[i]
+            data.ctrl[self._leg_act] = targets
+            if push is not None:
+                data.xfrc_applied[self._torso, :3] = push
+            data.warning.number[_INVALID] = 0
             mujoco.mj_step(model, data, nstep=self.n_sub)
-            bad = base.invalid_state(data)
+            bad = bool(data.warning.number[_INVALID].any())
             if not bad:
                 mujoco.mj_step1(model, data)
+            self._read(i)
             flags.append(bad)
         return flags
 
-    def _root(self, data) -> np.ndarray:
-        return data.qpos[self._root_q : self._root_q + 7]
-
-    def _column(self, read, indices=None) -> np.ndarray:
-        indices = range(self.num_envs) if indices is None else indices
-        return np.array([read(self.envs[i].physics.data) for i in indices])
+    def _read(self, i: int) -> None:
+        """Copies what sub-environment i's observation, reward and fall test read."""
+        data, s, obs = self._datas[i], self._sensors, self._obs
+        qpos, qvel, sensors = data.qpos, data.qvel, data.sensordata
+        obs["joint_angles"][i] = qpos[self._leg_q]
+        obs["joint_velocities"][i] = qvel[self._leg_v]
+        obs["torso_orientation"][i] = sensors[s["torso_orientation"]]
+        obs["torso_height"][i] = data.xpos[self._torso, 2]
+        obs["torso_velocity"][i] = qvel[self._root_v : self._root_v + 3]
+        obs["gyro"][i] = sensors[s["gyro"]]
+        obs["accelerometer"][i] = sensors[s["accelerometer"]]
+        obs["foot_touch"][i] = sensors[s["foot_touch"]]
+        self._root[i] = qpos[self._root_q : self._root_q + 7]
+        self._torso_x[i] = data.xpos[self._torso, 0]
 
     def _observations(self) -> dict[str, np.ndarray]:
         """`CPGTask.get_observation` for every sub-environment, as (N, ...) arrays."""
-        datas = [env.physics.data for env in self.envs]
-        qpos = np.array([d.qpos for d in datas])
-        qvel = np.array([d.qvel for d in datas])
-        sensors = np.array([d.sensordata for d in datas])
-        s = self._sensors
-        return {
-            "joint_angles": qpos[:, self._leg_q],
-            "joint_velocities": qvel[:, self._leg_v],
-            "torso_orientation": sensors[:, s["torso_orientation"]],
-            "torso_height": np.array([d.xpos[self._torso, 2] for d in datas])[:, None],
-            "torso_velocity": qvel[:, self._root_v : self._root_v + 3],
-            "gyro": sensors[:, s["gyro"]],
-            "accelerometer": sensors[:, s["accelerometer"]],
-            "foot_touch": sensors[:, s["foot_touch"]],
-        }
+        return {key: value.copy() for key, value in self._obs.items()}
+
+
+_INVALID = list(base._INVALID_STATE_WARNINGS)
 
 
 def _seeds(seed, n: int) -> list:
