@@ -96,6 +96,11 @@ def cem_rounds(found: list[dict], out: str) -> str | None:
     return _save(plt, fig, out, "cem_rounds.png")
 
 
+def _physics_steps(row: dict) -> float:
+    """A progress row's training physics steps (optimizers: `sim_steps`; PPO: `physics_steps`)."""
+    return float(row.get("sim_steps") or row["physics_steps"])
+
+
 def score_vs_budget(found: list[dict], out: str) -> str | None:
     """Validation score of the mean against the simulation budget, one line per
     configuration (the mean over its seeds, round by round); the small Table 6.3 settings
@@ -115,7 +120,7 @@ def score_vs_budget(found: list[dict], out: str) -> str | None:
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for (task, method, config), seeds in sorted(groups.items()):
         n = min(len(rows) for rows, _ in seeds)
-        steps = np.mean([[float(r["sim_steps"]) / 1e6 for r in rows[:n]] for rows, _ in seeds], 0)
+        steps = np.mean([[_physics_steps(r) / 1e6 for r in rows[:n]] for rows, _ in seeds], 0)
         values = np.mean([[float(r["validation_m"]) for r in rows[:n]] for rows, _ in seeds], 0)
         if min(trials for _, trials in seeds) < 2000:
             ax.plot(steps, values, color="0.75", linewidth=0.8)

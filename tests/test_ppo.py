@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import cpg_suite
-from analysis import leaderboard
+from analysis import leaderboard, report
 from baselines import ppo, protocol, runs, score
 from cpg_suite import cpg, darwin, residual, vector
 
@@ -177,6 +177,9 @@ def test_joints_run_files_leaderboard_row_and_policy(tmp_path):
     row = rows[0]
     assert (row["method"], row["config"], row["training_task"]) == ("ppo", "joints", "darwin_walk")
     assert row["budget_sim_steps"] == summary["sim_steps"] + summary["validation_sim_steps"]
+    # Its validation curve is a line of the report's score-vs-budget figure.
+    (tmp_path / "report").mkdir()
+    assert report.score_vs_budget(found, str(tmp_path / "report")).endswith("score_vs_budget.png")
     # The saved policy scores what the run's validation measured (step by step vs vectorized).
     policy = ppo.PPOPolicy.load(run_dir)
     trial = score.policy_trial(policy, "darwin_walk", protocol.VALIDATION.start, 30)
