@@ -16,9 +16,10 @@ import json, logging, os, pkgutil, random, sys, warnings
 import numpy as np
 from absl import flags, logging as absl_logging
 # Third-party packages have import-time effects of their own (gymnasium sets
-# PYGAME_HIDE_SUPPORT_PROMPT, scipy a warnings filter): import them first, so that what
-# changes below is ours.
+# PYGAME_HIDE_SUPPORT_PROMPT, scipy and torch warnings filters): import them first, so that
+# what changes below is ours.
 import dm_control.suite, gymnasium, mujoco, pandas, scipy.stats, shimmy, tqdm  # noqa
+import torch, stable_baselines3  # noqa  (baselines.ppo imports them)
 
 def snapshot():
     return {
