@@ -176,7 +176,7 @@ def check_discrete_action(action, spec: specs.DiscreteArray) -> int:
 
 
 # The warnings after which dm_control declares the physics state invalid (PhysicsError).
-_INVALID_STATE_WARNINGS = tuple(
+_INVALID_STATE_WARNINGS = list(
     int(w)
     for w in (
         mujoco.mjtWarning.mjWARN_BADQACC,
@@ -188,10 +188,9 @@ _INVALID_STATE_WARNINGS = tuple(
 
 def clear_invalid_state_warnings(data: mujoco.MjData) -> None:
     """Zeroes the warning counters that `invalid_state` reads (before a step)."""
-    for w in _INVALID_STATE_WARNINGS:
-        data.warning[w].number = 0
+    data.warning.number[_INVALID_STATE_WARNINGS] = 0
 
 
 def invalid_state(data: mujoco.MjData) -> bool:
     """Whether the step raised a warning after which dm_control raises `PhysicsError`."""
-    return any(data.warning[w].number > 0 for w in _INVALID_STATE_WARNINGS)
+    return bool(data.warning.number[_INVALID_STATE_WARNINGS].any())

@@ -44,15 +44,6 @@ from cpg_suite import base, darwin
 WALK_TASKS = tuple(t for t in cpg_suite.TASK_IDS if t.startswith("darwin_walk"))
 
 
-def _space(spec) -> gymnasium.spaces.Box:
-    """The Gymnasium box of a dm_env array spec (as shimmy converts it)."""
-    low = getattr(spec, "minimum", -np.inf)
-    high = getattr(spec, "maximum", np.inf)
-    return gymnasium.spaces.Box(
-        np.broadcast_to(low, spec.shape), np.broadcast_to(high, spec.shape), spec.shape, spec.dtype
-    )
-
-
 class DarwinVectorEnv(gymnasium.vector.VectorEnv):
     """`num_envs` DARwIn-OP walking environments of one tier, stepped together."""
 
@@ -101,10 +92,13 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.envs = [cpg_suite.load(task_id, task_kwargs=task_kwargs) for _ in range(num_envs)]
         first = self.envs[0]
+        # shimmy's spaces (imported here: it defines absl flags, as `cpg_suite.gym` avoids too).
+        from shimmy.utils.dm_env import dm_spec2gym_space
+
         self.single_observation_space = gymnasium.spaces.Dict(
-            {k: _space(s) for k, s in first.observation_spec().items()}
+            {k: dm_spec2gym_space(s) for k, s in first.observation_spec().items()}
         )
-        self.single_action_space = _space(first.action_spec())
+        self.single_action_space = dm_spec2gym_space(first.action_spec())
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._layout(first.physics)
@@ -134,7 +128,6 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self._leg_q = np.array([model.jnt_qposadr[address[n]] for n in darwin.cpg.LEG_JOINTS])
         self._leg_v = physics.leg_dofs()
         self._leg_act = np.array([model.name2id(n, "actuator") for n in darwin.cpg.LEG_JOINTS])
-        self._leg_range = physics.leg_joint_range()
         self._torso = physics.torso_body()
 
         def sensor(name: str) -> slice:
@@ -260,8 +253,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
 
     def _physics_step(self, active: np.ndarray, actions: np.ndarray) -> np.ndarray:
         """One control step of the `active` sub-environments; returns their invalid-state flags."""
-        low, high = self._leg_range[:, 0], self._leg_range[:, 1]
-        targets = low + (actions + 1.0) * 0.5 * (high - low)  # `Physics.action_to_targets`
+        targets = self.envs[0].physics.action_to_targets(actions)  # the tiers share ranges
         work = []
         for i in active:
             task = self.envs[i].task
@@ -289,9 +281,9 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             data.ctrl[self._leg_act] = targets
             if push is not None:
                 data.xfrc_applied[self._torso, :3] = push
-            data.warning.number[_INVALID] = 0
+            base.clear_invalid_state_warnings(data)
             mujoco.mj_step(model, data, nstep=self.n_sub)
-            bad = bool(data.warning.number[_INVALID].any())
+            bad = base.invalid_state(data)
             if not bad:
                 mujoco.mj_step1(model, data)
             self._read(i)
@@ -316,9 +308,6 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
     def _observations(self) -> dict[str, np.ndarray]:
         """`CPGTask.get_observation` for every sub-environment, as (N, ...) arrays."""
         return {key: value.copy() for key, value in self._obs.items()}
-
-
-_INVALID = list(base._INVALID_STATE_WARNINGS)
 
 
 def _seeds(seed, n: int) -> list:
