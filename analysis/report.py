@@ -135,6 +135,41 @@ def score_vs_budget(found: list[dict], out: str) -> str | None:
     return _save(plt, fig, out, "score_vs_budget.png")
 
 
+def learning_curves(found: list[dict], out: str) -> str | None:
+    """Deep-RL learning curves: validation score against training physics steps, one panel
+    per training tier, a thin line per seed and a thick line for the mean over seeds of
+    each configuration (the PPO action spaces)."""
+    groups = defaultdict(list)
+    for run in found:
+        if run["method"] != "ppo":
+            continue
+        path = os.path.join(run["dir"], "progress.csv")
+        rows = [r for r in _read_csv(path) if r.get("validation_m")]
+        if rows:
+            groups[(run["task"], run["config"])].append(rows)
+    if not groups:
+        return None
+    plt = _plt()
+    tasks = sorted({task for task, _ in groups})
+    fig, axes = plt.subplots(1, len(tasks), figsize=(5 * len(tasks), 4), squeeze=False, sharey=True)
+    for ax, task in zip(axes.flat, tasks):
+        for k, config in enumerate(sorted(c for t, c in groups if t == task)):
+            seeds, color = groups[(task, config)], f"C{k}"
+            for rows in seeds:
+                steps = [_physics_steps(r) / 1e6 for r in rows]
+                values = [float(r["validation_m"]) for r in rows]
+                ax.plot(steps, values, color=color, lw=0.6, alpha=0.5)
+            n = min(len(rows) for rows in seeds)
+            steps = [_physics_steps(r) / 1e6 for r in seeds[0][:n]]
+            mean = np.mean([[float(r["validation_m"]) for r in rows[:n]] for rows in seeds], 0)
+            ax.plot(steps, mean, color=color, lw=2, label=f"ppo {config} ({len(seeds)} seeds)")
+        ax.set_title(task, fontsize=9)
+        ax.set_xlabel("training budget (million physics steps)")
+        ax.legend(fontsize=7)
+    axes.flat[0].set_ylabel("validation success-weighted distance (m)")
+    return _save(plt, fig, out, "learning_curves.png")
+
+
 def tier_scores(darwin: list[dict], out: str) -> str | None:
     """Test score per tier with its interval, one group of bars per scored configuration
     (presets and runs of at least 2,000 training trials; where there are none, as in a
@@ -394,6 +429,9 @@ def _figures(found: list[dict], runs: str, out: str, with_gaits: bool) -> list[t
         ("Pole angle traces (Fig. 4.9-4.10)", pole_angles(found, out)),
         ("Value vs policy iteration on tokic (Fig. 4.4)", value_evolution(runs, out)),
     ]
+    curves = learning_curves(found, out)
+    if curves:  # only where there are deep-RL runs (a quick reproduction has none)
+        figures.insert(2, ("Deep-RL learning curves (PPO)", curves))
     if with_gaits:
         title = "Hand-tuned (top) and best gait (bottom), side view (Fig. 6.8)"
         figures.append((title, gaits(found, out)))

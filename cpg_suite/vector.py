@@ -13,8 +13,10 @@ single environment does. A step then bypasses dm_control's per-environment Pytho
 actions become servo targets for all environments at once, the physics substeps of every
 environment run in C threads (`mujoco.mj_step`, which releases the GIL), and the
 observations, rewards, falls and time limits are read out as (N, ...) arrays. Each
-sub-environment takes the steps `control.Environment.step` takes (`mj_step` over the
-substeps, then `mj_step1` for the observation), so its transitions equal those of the
+sub-environment takes the steps `control.Environment.step` takes (dm_control's default
+stepping: `mj_step2` finishes the first substep, whose `mj_step1` ran for the previous
+observation, `mj_step` takes the others, then `mj_step1` for the observation), so exactly
+`n_sub` physics steps per control step, and its transitions equal those of the
 Gymnasium environment `gymnasium.make("cpg_suite/<task_id>-v0")` reset with the same seed,
 bit for bit, for any thread count (`tests/test_vector_env.py`).
 
@@ -104,12 +106,12 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self._layout(first.physics)
         self._models = [env.physics.model.ptr for env in self.envs]
         self._datas = [env.physics.data.ptr for env in self.envs]
-        self._obs = {
-            key: np.zeros((self.num_envs,) + space.shape)
-            for key, space in self.single_observation_space.items()
-        }
-        self._root = np.zeros((self.num_envs, 7))  # the free joint's qpos
-        self._torso_x = np.zeros(self.num_envs)
+        # What the observations, rewards and fall tests read, per sub-environment.
+        model = first.physics.model
+        self._qpos = np.zeros((self.num_envs, model.nq))
+        self._qvel = np.zeros((self.num_envs, model.nv))
+        self._sensordata = np.zeros((self.num_envs, model.nsensordata))
+        self._torso_pos = np.zeros((self.num_envs, 3))
         self.n_sub = int(round(first.control_timestep() / first.physics.timestep()))
         self.step_limit = int(round(first._step_limit)) if np.isfinite(first._step_limit) else None
         self.physics_steps = 0  # physics steps simulated so far, all sub-environments
@@ -140,6 +142,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             "accelerometer": sensor("accelerometer"),
             "foot_touch": slice(sensor("touch_l").start, sensor("touch_r").stop),
         }
+        self._root_slice = slice(self._root_q, self._root_q + 7)  # the free joint's qpos
 
     # Gymnasium API.
     def reset(self, *, seed: int | list | None = None, options: dict | None = None):
@@ -193,11 +196,11 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         active = np.flatnonzero(stepping)
         if len(active):
             errors[active] = self._physics_step(active, actions)
-            x = self._torso_x[active]
+            x = self._torso_pos[active, 0]
             rewards[active] = x - self._x[active]
             self._x[active] = x
             self._steps[active] += 1
-            fallen = darwin.has_fallen(self._root[active]) | errors[active]
+            fallen = darwin.has_fallen(self._qpos[active, self._root_slice]) | errors[active]
             at_limit = (
                 self._steps[active] >= self.step_limit
                 if self.step_limit is not None
@@ -227,7 +230,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         env.reset()
         self._steps[i], self._done[i] = 0, False
         self._read(i)
-        self._x[i] = self._torso_x[i]
+        self._x[i] = self._torso_pos[i, 0]
 
     def _next_seed(self) -> int | None:
         return None if self._episode_seeds is None else int(next(self._episode_seeds))
@@ -273,8 +276,8 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
 
     def _step_block(self, work: list) -> list[bool]:
         """`control.Environment.step` for some sub-environments, in one thread: the servo
-        targets and push, the substeps (`mj_step`, the GIL released), `mj_step1`, and the
-        state the observations are read from."""
+        targets and push, the substeps (`mj_step2` then `mj_step`, the GIL released), the
+        invalid-state test, `mj_step1`, and a copy of the state the observations read."""
         flags = []
         for i, targets, push in work:
             model, data = self._models[i], self._datas[i]
@@ -282,7 +285,9 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             if push is not None:
                 data.xfrc_applied[self._torso, :3] = push
             base.clear_invalid_state_warnings(data)
-            mujoco.mj_step(model, data, nstep=self.n_sub)
+            mujoco.mj_step2(model, data)
+            if self.n_sub > 1:
+                mujoco.mj_step(model, data, nstep=self.n_sub - 1)
             bad = base.invalid_state(data)
             if not bad:
                 mujoco.mj_step1(model, data)
@@ -291,23 +296,27 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         return flags
 
     def _read(self, i: int) -> None:
-        """Copies what sub-environment i's observation, reward and fall test read."""
-        data, s, obs = self._datas[i], self._sensors, self._obs
-        qpos, qvel, sensors = data.qpos, data.qvel, data.sensordata
-        obs["joint_angles"][i] = qpos[self._leg_q]
-        obs["joint_velocities"][i] = qvel[self._leg_v]
-        obs["torso_orientation"][i] = sensors[s["torso_orientation"]]
-        obs["torso_height"][i] = data.xpos[self._torso, 2]
-        obs["torso_velocity"][i] = qvel[self._root_v : self._root_v + 3]
-        obs["gyro"][i] = sensors[s["gyro"]]
-        obs["accelerometer"][i] = sensors[s["accelerometer"]]
-        obs["foot_touch"][i] = sensors[s["foot_touch"]]
-        self._root[i] = qpos[self._root_q : self._root_q + 7]
-        self._torso_x[i] = data.xpos[self._torso, 0]
+        """Copies the state sub-environment i's observation, reward and fall test read."""
+        data = self._datas[i]
+        self._qpos[i] = data.qpos
+        self._qvel[i] = data.qvel
+        self._sensordata[i] = data.sensordata
+        self._torso_pos[i] = data.xpos[self._torso]
 
     def _observations(self) -> dict[str, np.ndarray]:
         """`CPGTask.get_observation` for every sub-environment, as (N, ...) arrays."""
-        return {key: value.copy() for key, value in self._obs.items()}
+        qvel, sensors, s = self._qvel, self._sensordata, self._sensors
+        observations = {
+            "joint_angles": self._qpos[:, self._leg_q],
+            "joint_velocities": qvel[:, self._leg_v],
+            "torso_orientation": sensors[:, s["torso_orientation"]].copy(),
+            "torso_height": self._torso_pos[:, 2:3].copy(),
+            "torso_velocity": qvel[:, self._root_v : self._root_v + 3].copy(),
+            "gyro": sensors[:, s["gyro"]].copy(),
+            "accelerometer": sensors[:, s["accelerometer"]].copy(),
+            "foot_touch": sensors[:, s["foot_touch"]].copy(),
+        }
+        return {key: observations[key] for key in self.single_observation_space}
 
 
 def _seeds(seed, n: int) -> list:

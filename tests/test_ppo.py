@@ -180,6 +180,7 @@ def test_joints_run_files_leaderboard_row_and_policy(tmp_path):
     # Its validation curve is a line of the report's score-vs-budget figure.
     (tmp_path / "report").mkdir()
     assert report.score_vs_budget(found, str(tmp_path / "report")).endswith("score_vs_budget.png")
+    assert report.learning_curves(found, str(tmp_path / "report")).endswith("learning_curves.png")
     # The saved policy scores what the run's validation measured (step by step vs vectorized).
     policy = ppo.PPOPolicy.load(run_dir)
     trial = score.policy_trial(policy, "darwin_walk", protocol.VALIDATION.start, 30)
