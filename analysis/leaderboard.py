@@ -278,6 +278,50 @@ def darwin_rows(found: list[dict]) -> list[dict]:
     return rows
 
 
+def _number(text: str):
+    """A CSV cell as it was written: int, float or the empty string."""
+    if text == "":
+        return ""
+    try:
+        return int(text)
+    except ValueError:
+        try:
+            return float(text)
+        except ValueError:
+            return text
+
+
+def carry_darwin_rows(rows: list[dict], path: str) -> list[dict]:
+    """`rows` plus the rows of an earlier DARwIn leaderboard CSV (e.g. the committed
+    results/protocol/darwin_leaderboard.csv) for configurations `rows` lacks, re-ranked by
+    test score. A configuration with runs at hand is always scored from them.
+
+    Args:
+      rows: `darwin_rows` of the runs at hand.
+      path: A CSV written with `DARWIN_FIELDS`.
+
+    Returns:
+      The merged rows, ranked.
+
+    Raises:
+      OSError: If `path` cannot be read.
+      ValueError: If its header is not `DARWIN_FIELDS`.
+    """
+    with open(path, newline="", encoding="utf-8") as f:
+        reader = csv.DictReader(f)
+        if reader.fieldnames != DARWIN_FIELDS:
+            raise ValueError(f"{path} is not a DARwIn leaderboard (its header differs)")
+        earlier = [{k: _number(v) for k, v in row.items()} for row in reader]
+    have = {(r["training_task"], r["method"], r["config"]) for r in rows}
+    merged = list(rows) + [
+        r for r in earlier if (r["training_task"], r["method"], r["config"]) not in have
+    ]
+    merged.sort(key=lambda r: -r["test_score_m"])
+    for rank, row in enumerate(merged, 1):
+        row["rank"] = rank
+    return merged
+
+
 def _carried_claims(root: str) -> list[dict]:
     claims = []
     for dirpath, _, filenames in os.walk(root):

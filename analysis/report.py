@@ -415,11 +415,15 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="also render the hand-tuned and the best gait (needs EGL)",
     )
+    parser.add_argument(
+        "--carry",
+        help="an earlier darwin_leaderboard.csv whose rows are kept for configurations "
+        "without runs under --runs",
+    )
     return parser
 
 
-def _figures(found: list[dict], runs: str, out: str, with_gaits: bool) -> list[tuple]:
-    darwin = leaderboard.darwin_rows(found)
+def _figures(found, darwin: list[dict], runs: str, out: str, with_gaits: bool) -> list[tuple]:
     figures = [
         ("Validation score vs simulation budget", score_vs_budget(found, out)),
         ("Test score per tier", tier_scores(darwin, out)),
@@ -480,8 +484,14 @@ def main(argv=None) -> int:
     found, skipped = leaderboard.find_runs(args.runs)
     rows = leaderboard.leaderboard_rows(found)
     darwin = leaderboard.darwin_rows(found)
+    if args.carry:
+        try:
+            darwin = leaderboard.carry_darwin_rows(darwin, args.carry)
+        except (OSError, ValueError) as e:
+            print(f"error: --carry: {e}", file=sys.stderr)
+            return 2
     claims = leaderboard.claim_rows(found, args.runs)
-    figures = _figures(found, args.runs, args.out, args.gaits)
+    figures = _figures(found, darwin, args.runs, args.out, args.gaits)
     lines = _report_lines(args.runs, found, figures, (rows, darwin, claims), skipped)
     with open(os.path.join(args.out, "report.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines))

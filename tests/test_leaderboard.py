@@ -3,6 +3,8 @@
 import csv
 import json
 
+import pytest
+
 from analysis import leaderboard, published
 
 
@@ -68,3 +70,30 @@ def test_published_data_is_complete():
     assert published.NUMBERS["CEM-N25"]["value"] == "1.782815"
     assert "6 states" in published.CLAIMS["CR-1"]
     assert all(row["source"] for row in published.NUMBERS.values())
+
+
+def test_carried_rows_fill_in_configurations_without_runs(tmp_path):
+    fields = leaderboard.DARWIN_FIELDS
+    earlier = [dict.fromkeys(fields, "") for _ in range(3)]
+    for row, (config, score) in zip(earlier, (("a", 3.0), ("b", 2.0), ("c", 1.0))):
+        row.update(training_task="darwin_walk", method="cmaes", config=config, n_seeds=3)
+        row.update(test_score_m=score, budget_sim_steps=1.5e7)
+    path = str(tmp_path / "darwin_leaderboard.csv")
+    leaderboard.write_csv(path, earlier, fields)
+    # Runs at hand for "b" (now the best) and a new configuration; "a" and "c" are carried.
+    fresh = [
+        {"training_task": "darwin_walk", "method": "cmaes", "config": "b", "test_score_m": 4.0},
+        {"training_task": "darwin_walk", "method": "ppo", "config": "cpg", "test_score_m": 0.5},
+    ]
+    merged = leaderboard.carry_darwin_rows(fresh, path)
+    assert [(r["config"], r["test_score_m"], r["rank"]) for r in merged] == [
+        ("b", 4.0, 1),
+        ("a", 3.0, 2),
+        ("c", 1.0, 3),
+        ("cpg", 0.5, 4),
+    ]
+    assert merged[1]["n_seeds"] == 3 and merged[1]["budget_sim_steps"] == 1.5e7
+    assert merged[1]["darwin_walk_score_m"] == ""  # empty cells stay empty
+    (tmp_path / "other.csv").write_text("rank,score\n1,2\n")
+    with pytest.raises(ValueError, match="not a DARwIn leaderboard"):
+        leaderboard.carry_darwin_rows(fresh, str(tmp_path / "other.csv"))
