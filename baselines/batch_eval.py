@@ -55,12 +55,6 @@ class Episode:
     ctrl: np.ndarray | None = None  # the reset's actuator controls (the posture's targets)
 
 
-def _sensor_slice(model: mujoco.MjModel, first: str, last: str) -> slice:
-    """The `sensordata` range from sensor `first` to sensor `last`, inclusive."""
-    a, b = model.sensor(first), model.sensor(last)
-    return slice(int(a.adr[0]), int(b.adr[0] + b.dim[0]))
-
-
 @dataclasses.dataclass
 class BatchResult:
     """Per candidate (and per initial state): distance, lateral displacement, fall."""
@@ -135,14 +129,8 @@ class BatchEvaluator:
         self._torso = env.physics.torso_body()
         nq = self.model.nq
         self._leg_qvel = 1 + nq + env.physics.leg_dofs()  # in the FULLPHYSICS state
-        self._sensors = {
-            name: _sensor_slice(self.model, first, last)
-            for name, first, last in (
-                ("torque", f"force_{cpg.LEG_JOINTS[0]}", f"force_{cpg.LEG_JOINTS[-1]}"),
-                ("touch", "touch_l", "touch_r"),
-                ("sole_velocity", "sole_velocity_l", "sole_velocity_r"),
-            )
-        }
+        slices = env.physics.sensor_slices()  # recorded in this order
+        self._sensors = {k: slices[k] for k in ("leg_torques", "foot_touch", "sole_velocities")}
         self._local = threading.local()
         self._executor = concurrent.futures.ThreadPoolExecutor(threads) if threads > 1 else None
         qpos = self.model.jnt_qposadr[self.model.joint("root").id]

@@ -102,7 +102,7 @@ class FeedbackEvaluator:
         self._physics = physics
         self._legs = physics.leg_dofs()
         self._torso = physics.torso_body()
-        self._sensors = _sensor_slices(physics)
+        self._sensors = physics.sensor_slices()
         self._root = int(physics.model.jnt_qposadr[physics.model.name2id("root", "joint")])
         self._executor = concurrent.futures.ThreadPoolExecutor(threads) if threads > 1 else None
         self.threads = threads
@@ -153,7 +153,7 @@ class FeedbackEvaluator:
         """(K·S, 6) feedback inputs from every trial's sensors (a fallen trial's are unused)."""
         sensors, s = np.array([t.data.sensordata for t in trials]), self._sensors
         return feedback.sensor_inputs(
-            sensors[:, s["orientation"]], sensors[:, s["gyro"]], sensors[:, s["touch"]]
+            sensors[:, s["torso_orientation"]], sensors[:, s["gyro"]], sensors[:, s["foot_touch"]]
         )
 
     @staticmethod
@@ -201,9 +201,9 @@ class FeedbackEvaluator:
         return np.concatenate(
             [
                 data.qvel[self._legs],
-                data.sensordata[s["torque"]],
-                data.sensordata[s["touch"]],
-                data.sensordata[s["sole_velocity"]],
+                data.sensordata[s["leg_torques"]],
+                data.sensordata[s["foot_touch"]],
+                data.sensordata[s["sole_velocities"]],
             ]
         )
 
@@ -235,20 +235,4 @@ class FeedbackEvaluator:
         )
 
 
-_RECORDED = ("torque", "touch", "sole_velocity")
-
-
-def _sensor_slices(physics) -> dict[str, slice]:
-    model = physics.model
-
-    def span(first: str, last: str) -> slice:
-        a, b = model.name2id(first, "sensor"), model.name2id(last, "sensor")
-        return slice(int(model.sensor_adr[a]), int(model.sensor_adr[b] + model.sensor_dim[b]))
-
-    return {
-        "orientation": span("torso_orientation", "torso_orientation"),
-        "gyro": span("gyro", "gyro"),
-        "touch": span("touch_l", "touch_r"),
-        "torque": span(f"force_{cpg.LEG_JOINTS[0]}", f"force_{cpg.LEG_JOINTS[-1]}"),
-        "sole_velocity": span("sole_velocity_l", "sole_velocity_r"),
-    }
+_RECORDED = ("leg_torques", "foot_touch", "sole_velocities")

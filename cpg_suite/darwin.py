@@ -294,14 +294,20 @@ class Physics(mujoco.Physics):
             adr, dim = int(model.sensor_adr[i]), int(model.sensor_dim[i])
             return slice(adr, adr + dim)
 
-        self._gyro = sensor("gyro")
-        self._accelerometer = sensor("accelerometer")
-        self._orientation = sensor("torso_orientation")
-        self._touch = slice(sensor("touch_l").start, sensor("touch_r").stop)
-        self._leg_torque = slice(
-            sensor(f"force_{cpg.LEG_JOINTS[0]}").start, sensor(f"force_{cpg.LEG_JOINTS[-1]}").stop
-        )
-        self._sole_velocity = slice(sensor("sole_velocity_l").start, sensor("sole_velocity_r").stop)
+        # Where each reading lies in `data.sensordata` (`sensor_slices`).
+        self._sensors = {
+            "torso_orientation": sensor("torso_orientation"),
+            "gyro": sensor("gyro"),
+            "accelerometer": sensor("accelerometer"),
+            "foot_touch": slice(sensor("touch_l").start, sensor("touch_r").stop),
+            "leg_torques": slice(
+                sensor(f"force_{cpg.LEG_JOINTS[0]}").start,
+                sensor(f"force_{cpg.LEG_JOINTS[-1]}").stop,
+            ),
+            "sole_velocities": slice(
+                sensor("sole_velocity_l").start, sensor("sole_velocity_r").stop
+            ),
+        }
         self._leg_range = model.jnt_range[[model.name2id(n, "joint") for n in cpg.LEG_JOINTS]]
         self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
         names = [model.id2name(i, "geom") or "" for i in range(model.ngeom)]
@@ -452,9 +458,15 @@ class Physics(mujoco.Physics):
         """y of the torso origin, m."""
         return float(self.data.xpos[self._torso, 1])
 
+    def sensor_slices(self) -> dict[str, slice]:
+        """Where the readings of the accessors below lie in `data.sensordata`, for code that
+        reads many robots' sensor arrays at once: keys `torso_orientation`, `gyro`,
+        `accelerometer`, `foot_touch`, `leg_torques`, `sole_velocities`."""
+        return dict(self._sensors)
+
     def torso_orientation(self) -> np.ndarray:
         """Torso orientation quaternion (w, x, y, z) from the IMU."""
-        return self.data.sensordata[self._orientation].copy()
+        return self.data.sensordata[self._sensors["torso_orientation"]].copy()
 
     def root_qpos(self) -> np.ndarray:
         """The free joint's coordinates: torso position (3) and quaternion (4)."""
@@ -470,11 +482,11 @@ class Physics(mujoco.Physics):
 
     def gyro(self) -> np.ndarray:
         """IMU angular velocity in the torso frame, rad/s."""
-        return self.data.sensordata[self._gyro].copy()
+        return self.data.sensordata[self._sensors["gyro"]].copy()
 
     def accelerometer(self) -> np.ndarray:
         """IMU specific force in the torso frame, m/s²."""
-        return self.data.sensordata[self._accelerometer].copy()
+        return self.data.sensordata[self._sensors["accelerometer"]].copy()
 
     def fallen(self) -> bool:
         """The torso is below 0.22 m or tilted more than 50° (`has_fallen`)."""
@@ -483,15 +495,15 @@ class Physics(mujoco.Physics):
     # Feet.
     def foot_touch(self) -> np.ndarray:
         """Normal force on the (left, right) sole touch sensors, N."""
-        return self.data.sensordata[self._touch].copy()
+        return self.data.sensordata[self._sensors["foot_touch"]].copy()
 
     def leg_torques(self) -> np.ndarray:
         """Torques of the 12 leg servos, N·m (`cpg.LEG_JOINTS` order)."""
-        return self.data.sensordata[self._leg_torque].copy()
+        return self.data.sensordata[self._sensors["leg_torques"]].copy()
 
     def sole_velocities(self) -> np.ndarray:
         """(2, 3) linear velocities of the (left, right) sole centres in the world, m/s."""
-        return self.data.sensordata[self._sole_velocity].reshape(2, 3).copy()
+        return self.data.sensordata[self._sensors["sole_velocities"]].reshape(2, 3).copy()
 
     def torque_limit(self) -> float:
         """The servos' torque limit, N·m."""

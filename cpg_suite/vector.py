@@ -132,16 +132,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self._leg_act = np.array([model.name2id(n, "actuator") for n in darwin.cpg.LEG_JOINTS])
         self._torso = physics.torso_body()
 
-        def sensor(name: str) -> slice:
-            i = model.name2id(name, "sensor")
-            return slice(int(model.sensor_adr[i]), int(model.sensor_adr[i] + model.sensor_dim[i]))
-
-        self._sensors = {
-            "torso_orientation": sensor("torso_orientation"),
-            "gyro": sensor("gyro"),
-            "accelerometer": sensor("accelerometer"),
-            "foot_touch": slice(sensor("touch_l").start, sensor("touch_r").stop),
-        }
+        self._sensors = physics.sensor_slices()
         self._root_slice = slice(self._root_q, self._root_q + 7)  # the free joint's qpos
 
     # Gymnasium API.
