@@ -162,7 +162,8 @@ def learning_curves(found: list[dict], out: str) -> str | None:
             n = min(len(rows) for rows in seeds)
             steps = [_physics_steps(r) / 1e6 for r in seeds[0][:n]]
             mean = np.mean([[float(r["validation_m"]) for r in rows[:n]] for rows in seeds], 0)
-            ax.plot(steps, mean, color=color, lw=2, label=f"ppo {config} ({len(seeds)} seeds)")
+            label = f"ppo {config} ({len(seeds)} seed{'s' * (len(seeds) > 1)})"
+            ax.plot(steps, mean, color=color, lw=2, label=label)
         ax.set_title(task, fontsize=9)
         ax.set_xlabel("training budget (million physics steps)")
         ax.legend(fontsize=7)
