@@ -185,7 +185,8 @@ def tier_scores(darwin: list[dict], out: str) -> str | None:
         return None
     plt = _plt()
     tiers = leaderboard.TIERS
-    fig, ax = plt.subplots(figsize=(9, 4.5))
+    fig, ax = plt.subplots(figsize=(13, 5))
+    colors = plt.get_cmap("tab20").colors
     width = 0.8 / len(darwin)
     for i, row in enumerate(darwin):
         values = np.array([row[f"{t}_score_m"] or 0.0 for t in tiers])
@@ -193,12 +194,14 @@ def tier_scores(darwin: list[dict], out: str) -> str | None:
         high = np.array([row[f"{t}_ci95_high"] or 0.0 for t in tiers])
         x = np.arange(len(tiers)) + i * width
         label = f"{row['method']} {row['config']} ({row['training_task']})"
-        ax.bar(x, values, width, label=label, yerr=[values - low, high - values], capsize=2)
+        errors = [values - low, high - values]
+        color = colors[i % len(colors)]
+        ax.bar(x, values, width, label=label, color=color, yerr=errors, capsize=2)
     ax.set_xticks(np.arange(len(tiers)) + 0.4 - width / 2)
     ax.set_xticklabels([t.replace("darwin_walk", "walk") for t in tiers])
     ax.set_ylabel("test success-weighted distance (m)")
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return _save(plt, fig, out, "tier_scores.png")
 
 
