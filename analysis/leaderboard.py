@@ -271,7 +271,11 @@ def darwin_rows(found: list[dict]) -> list[dict]:
         darwin = run["task"].startswith("darwin_walk") or run["method"] == PRESET_METHOD
         if darwin and isinstance(run["summary"].get("test"), dict):
             groups[(run["task"], run["method"], run["config"])].append(run["summary"])
-    rows = [_darwin_row(key, summaries) for key, summaries in groups.items()]
+    return _ranked([_darwin_row(key, summaries) for key, summaries in groups.items()])
+
+
+def _ranked(rows: list[dict]) -> list[dict]:
+    """The rows sorted by test score, best first, with their `rank` set."""
     rows.sort(key=lambda r: -r["test_score_m"])
     for rank, row in enumerate(rows, 1):
         row["rank"] = rank
@@ -313,13 +317,8 @@ def carry_darwin_rows(rows: list[dict], path: str) -> list[dict]:
             raise ValueError(f"{path} is not a DARwIn leaderboard (its header differs)")
         earlier = [{k: _number(v) for k, v in row.items()} for row in reader]
     have = {(r["training_task"], r["method"], r["config"]) for r in rows}
-    merged = list(rows) + [
-        r for r in earlier if (r["training_task"], r["method"], r["config"]) not in have
-    ]
-    merged.sort(key=lambda r: -r["test_score_m"])
-    for rank, row in enumerate(merged, 1):
-        row["rank"] = rank
-    return merged
+    carried = [r for r in earlier if (r["training_task"], r["method"], r["config"]) not in have]
+    return _ranked(list(rows) + carried)
 
 
 def _carried_claims(root: str) -> list[dict]:

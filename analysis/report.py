@@ -96,6 +96,11 @@ def cem_rounds(found: list[dict], out: str) -> str | None:
     return _save(plt, fig, out, "cem_rounds.png")
 
 
+def _validation_rows(run: dict) -> list[dict]:
+    """The progress rows of a run that carry a validation score."""
+    return [r for r in _read_csv(os.path.join(run["dir"], "progress.csv")) if r.get("validation_m")]
+
+
 def _physics_steps(row: dict) -> float:
     """A progress row's training physics steps (optimizers: `sim_steps`; PPO: `physics_steps`)."""
     return float(row.get("sim_steps") or row["physics_steps"])
@@ -109,8 +114,7 @@ def score_vs_budget(found: list[dict], out: str) -> str | None:
     for run in found:
         if not run["task"].startswith("darwin_walk"):
             continue
-        path = os.path.join(run["dir"], "progress.csv")
-        rows = [r for r in _read_csv(path) if r.get("validation_m")]
+        rows = _validation_rows(run)
         if rows:
             trials = run["summary"].get("evaluations") or 0
             groups[(run["task"], run["method"], run["config"])].append((rows, trials))
@@ -143,8 +147,7 @@ def learning_curves(found: list[dict], out: str) -> str | None:
     for run in found:
         if run["method"] != "ppo":
             continue
-        path = os.path.join(run["dir"], "progress.csv")
-        rows = [r for r in _read_csv(path) if r.get("validation_m")]
+        rows = _validation_rows(run)
         if rows:
             groups[(run["task"], run["config"])].append(rows)
     if not groups:

@@ -55,6 +55,10 @@ class Episode:
     ctrl: np.ndarray | None = None  # the reset's actuator controls (the posture's targets)
 
 
+# The sensors a trial records for its gait measures, in the record's order.
+RECORDED_SENSORS = ("leg_torques", "foot_touch", "sole_velocities")
+
+
 @dataclasses.dataclass
 class BatchResult:
     """Per candidate (and per initial state): distance, lateral displacement, fall."""
@@ -129,8 +133,8 @@ class BatchEvaluator:
         self._torso = env.physics.torso_body()
         nq = self.model.nq
         self._leg_qvel = 1 + nq + env.physics.leg_dofs()  # in the FULLPHYSICS state
-        slices = env.physics.sensor_slices()  # recorded in this order
-        self._sensors = {k: slices[k] for k in ("leg_torques", "foot_touch", "sole_velocities")}
+        slices = env.physics.sensor_slices()
+        self._sensors = {k: slices[k] for k in RECORDED_SENSORS}
         self._local = threading.local()
         self._executor = concurrent.futures.ThreadPoolExecutor(threads) if threads > 1 else None
         qpos = self.model.jnt_qposadr[self.model.joint("root").id]

@@ -22,6 +22,7 @@ import numpy as np
 import cpg_suite
 from baselines import quality as gait_quality
 from baselines.batch_eval import (
+    RECORDED_SENSORS,
     BatchEvaluator,
     BatchResult,
     Episode,
@@ -220,7 +221,8 @@ class FeedbackEvaluator:
         return BatchResult(distance, lateral, fall, int(sum(t.simulated for t in trials)), measured)
 
     def _measures(self, trial: _Trial, distance: float) -> dict:
-        width = 12 + sum(s.stop - s.start for k, s in self._sensors.items() if k in _RECORDED)
+        s = self._sensors
+        width = 12 + sum(s[k].stop - s[k].start for k in RECORDED_SENSORS)
         record = np.array(trial.record) if trial.record else np.zeros((0, width))
         torque, touch, sole = np.split(record[:, 12:], [12, 14], axis=1)
         return gait_quality.measures(
@@ -233,6 +235,3 @@ class FeedbackEvaluator:
             mass=float(trial.model.body_subtreemass[self._torso]),
             distance=float(distance),
         )
-
-
-_RECORDED = ("leg_torques", "foot_touch", "sole_velocities")
