@@ -18,8 +18,13 @@ Missing or malformed run files are skipped and listed on stderr, never a crash.
 
 from __future__ import annotations
 
-import argparse
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import csv
+import dataclasses
 import json
 import math
 import os
@@ -28,9 +33,11 @@ import sys
 from collections import defaultdict
 
 import numpy as np
+from absl import flags
 
 from analysis import published
 from baselines.stats import mean_std_ci95
+from cpg_suite import cli
 
 _SEED = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
 # (method, task) -> [(metric key in summary.json, unit, higher is better)].
@@ -499,33 +506,89 @@ def write_csv(path: str, rows: list[dict], fields: list[str]) -> None:
     os.replace(tmp, path)
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", required=True, help="root of the run directories")
-    parser.add_argument("--out", default="leaderboard.csv", help="leaderboard CSV path")
-    args = parser.parse_args(argv)
-    if not os.path.isdir(args.runs):
-        print(f"error: --runs {args.runs} is not a directory", file=sys.stderr)
-        return 2
-    found, skipped = find_runs(args.runs)
+def check_runs_dir(runs: str | None) -> None:
+    """Checks the `--runs` of an analysis command: an existing directory.
+
+    Args:
+      runs: The root of the run directories (None: not given).
+
+    Raises:
+      ValueError: With a one-line reason naming `--runs`.
+    """
+    cli.require(runs is not None, "--runs is required: the root of the run directories")
+    cli.require(os.path.isdir(runs), f"--runs={runs} is not a directory")
+
+
+@dataclasses.dataclass(frozen=True)
+class LeaderboardSettings:
+    """What `python -m analysis.leaderboard` reads and writes.
+
+    Attributes:
+      runs: The root of the run directories; must be an existing directory.
+      out: The leaderboard CSV; `claims.csv` and `darwin_leaderboard.csv` go beside it.
+    """
+
+    runs: str | None = None
+    out: str = "leaderboard.csv"
+
+    def __post_init__(self):
+        check_runs_dir(self.runs)
+        cli.require(bool(self.out), "--out must name a CSV file, got an empty path")
+
+
+def write_tables(runs: str, out: str) -> str:
+    """Writes the leaderboard, the claims and the DARwIn test-score table of a run tree.
+
+    Writes `out`, and `claims.csv` and `darwin_leaderboard.csv` in the same folder
+    (created if missing). Run files that cannot be read are skipped and listed on stderr.
+
+    Args:
+      runs: The root of the run directories.
+      out: The leaderboard CSV path.
+
+    Returns:
+      One line saying how many runs, rows and claims went where.
+
+    Raises:
+      ValueError: If `runs` is not a directory.
+      OSError: If an output file cannot be written.
+    """
+    check_runs_dir(runs)
+    found, skipped = find_runs(runs)
     rows = leaderboard_rows(found)
-    claims = claim_rows(found, args.runs)
-    out_dir = os.path.dirname(os.path.abspath(args.out))
+    claims = claim_rows(found, runs)
+    out_dir = os.path.dirname(os.path.abspath(out))
     os.makedirs(out_dir, exist_ok=True)
-    write_csv(args.out, rows, LEADERBOARD_FIELDS)
+    write_csv(out, rows, LEADERBOARD_FIELDS)
     write_csv(os.path.join(out_dir, "claims.csv"), claims, CLAIM_FIELDS)
     darwin = darwin_rows(found)
     write_csv(os.path.join(out_dir, "darwin_leaderboard.csv"), darwin, DARWIN_FIELDS)
     for line in skipped:
         print(f"skipped: {line}", file=sys.stderr)
     judged = sum(c["holds"] != "untested" for c in claims)
-    print(
-        f"{len(found)} runs, {len(rows)} leaderboard rows -> {args.out}; {len(darwin)} DARwIn "
+    return (
+        f"{len(found)} runs, {len(rows)} leaderboard rows -> {out}; {len(darwin)} DARwIn "
         f"test-score rows -> darwin_leaderboard.csv; {len(claims)} claims "
         f"({judged} judged) -> {os.path.join(out_dir, 'claims.csv')}"
     )
-    return 0
+
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    flags.DEFINE_string("runs", None, "Root of the run directories (an existing directory).")
+    flags.DEFINE_string(
+        "out",
+        LeaderboardSettings.out,
+        "Leaderboard CSV path; claims.csv and darwin_leaderboard.csv go beside it.",
+    )
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    settings = cli.settings_from_flags(LeaderboardSettings)
+    print(write_tables(settings.runs, settings.out))
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    define_flags()
+    cli.run(main, output_files=("out",))

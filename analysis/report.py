@@ -21,8 +21,13 @@ and listed in the report; malformed run files are skipped, never a crash.
 
 from __future__ import annotations
 
-import argparse
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import csv
+import dataclasses
 import json
 import os
 import subprocess
@@ -30,8 +35,10 @@ import sys
 from collections import defaultdict
 
 import numpy as np
+from absl import flags
 
 from analysis import leaderboard
+from cpg_suite import cli
 
 
 def _plt():
@@ -352,6 +359,16 @@ def _best_gait_file(found: list[dict]) -> tuple[str | None, float]:
     return best, best_distance
 
 
+def _renderer_env() -> dict[str, str]:
+    """This process's environment for the rendering child, less `MUJOCO_GL=disable` (which
+    `cli.without_rendering` sets in this program), so the child chooses a backend that
+    renders (`cli.choose_renderer`)."""
+    env = dict(os.environ)
+    if env.get("MUJOCO_GL") == "disable":
+        del env["MUJOCO_GL"]
+    return env
+
+
 def gaits(found: list[dict], out: str) -> str | None:
     """Filmstrips of the hand-tuned and the best gait, one above the other, and videos.
 
@@ -385,7 +402,9 @@ def gaits(found: list[dict], out: str) -> str | None:
             "--height=248",
             "--strip_start=8.0",
         ]
-        done = subprocess.run(command, capture_output=True, text=True, check=False)
+        done = subprocess.run(
+            command, capture_output=True, text=True, check=False, env=_renderer_env()
+        )
         if done.returncode != 0:
             raise RuntimeError(f"rendering {params} failed: {done.stderr.strip()[-500:]}")
         strips.append(Image.open(os.path.join(out, f"{name}_filmstrip.png")).convert("RGB"))
@@ -413,23 +432,6 @@ def _markdown_table(rows: list[dict], fields: list[str]) -> str:
     return "\n".join(lines)
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", required=True, help="root of the run directories")
-    parser.add_argument("--out", required=True, help="output folder")
-    parser.add_argument(
-        "--gaits",
-        action="store_true",
-        help="also render the hand-tuned and the best gait (needs EGL)",
-    )
-    parser.add_argument(
-        "--carry",
-        help="an earlier darwin_leaderboard.csv whose rows are kept for configurations "
-        "without runs under --runs",
-    )
-    return parser
-
-
 def _figures(found, darwin: list[dict], runs: str, out: str, with_gaits: bool) -> list[tuple]:
     figures = [
         ("Validation score vs simulation budget", score_vs_budget(found, out)),
@@ -449,9 +451,16 @@ def _figures(found, darwin: list[dict], runs: str, out: str, with_gaits: bool) -
     return figures
 
 
+def _shown_path(path: str) -> str:
+    """`path` relative to the working directory, or only its name if it lies outside: a
+    shipped report names no machine's absolute paths."""
+    relative = os.path.relpath(path)
+    return os.path.basename(os.path.abspath(path)) if relative.startswith("..") else relative
+
+
 def _report_lines(runs, found, figures, tables, skipped) -> list[str]:
     rows, darwin, claims = tables
-    lines = ["# cpg_suite report", "", f"Runs: `{runs}` ({len(found)} runs).", ""]
+    lines = ["# cpg_suite report", "", f"Runs: `{_shown_path(runs)}` ({len(found)} runs).", ""]
     for title, path in figures:
         lines += [f"## {title}", ""]
         lines += [f"![{title}]({os.path.basename(path)})" if path else "(no data)", ""]
@@ -477,41 +486,116 @@ def _report_lines(runs, found, figures, tables, skipped) -> list[str]:
     return lines
 
 
-def main(argv=None) -> int:
-    args = _parser().parse_args(argv)
-    if not os.path.isdir(args.runs):
-        print(f"error: --runs {args.runs} is not a directory", file=sys.stderr)
-        return 2
-    try:
-        _plt()
-    except ImportError:
-        print("error: the report needs matplotlib: pip install 'cpg-suite[plots]'", file=sys.stderr)
-        return 2
-    os.makedirs(args.out, exist_ok=True)
-    found, skipped = leaderboard.find_runs(args.runs)
+@dataclasses.dataclass(frozen=True)
+class ReportSettings:
+    """What `python -m analysis.report` reads and writes.
+
+    Attributes:
+      runs: The root of the run directories; must be an existing directory.
+      out: The folder the figures, report.md and the CSVs go into.
+      gaits: Also render the hand-tuned and the best gait (a child process renders).
+      carry: An earlier darwin_leaderboard.csv whose rows are kept for configurations
+        without runs under `runs` (None: none).
+    """
+
+    runs: str | None = None
+    out: str | None = None
+    gaits: bool = False
+    carry: str | None = None
+
+    def __post_init__(self):
+        leaderboard.check_runs_dir(self.runs)
+        cli.require(bool(self.out), "--out is required: the folder the report goes into")
+        if self.carry is not None:
+            cli.require(os.path.isfile(self.carry), f"--carry={self.carry} is not a file")
+            try:
+                leaderboard.carry_darwin_rows([], self.carry)
+            except (OSError, ValueError) as e:
+                raise ValueError(f"--carry={self.carry}: {e}") from None
+
+
+def write_report(runs: str, out: str, gaits: bool = False, carry: str | None = None) -> str:
+    """Writes the figures, `report.md`, the leaderboard CSVs and `claims.csv` into `out`.
+
+    Figures whose data are missing are skipped and listed in the report; malformed run
+    files are skipped and listed too. The inputs are read before anything is written.
+
+    Args:
+      runs: The root of the run directories.
+      out: The output folder (created if missing).
+      gaits: Also render the hand-tuned and the best gait, by running
+        `python -m cpg_suite.explore` (which picks its own rendering backend).
+      carry: An earlier `darwin_leaderboard.csv` (`leaderboard.carry_darwin_rows`) whose
+        rows are kept for configurations without runs under `runs` (None: none).
+
+    Returns:
+      One line saying how many figures were made and where they went.
+
+    Raises:
+      ValueError: If `runs` is not a directory or `carry` is not a DARwIn leaderboard.
+      OSError: If `carry` cannot be read or an output cannot be written.
+      ImportError: Without matplotlib (`pip install 'cpg-suite[plots]'`).
+      RuntimeError: If rendering the gaits fails.
+    """
+    leaderboard.check_runs_dir(runs)
+    found, skipped = leaderboard.find_runs(runs)
     rows = leaderboard.leaderboard_rows(found)
     darwin = leaderboard.darwin_rows(found)
-    if args.carry:
-        try:
-            darwin = leaderboard.carry_darwin_rows(darwin, args.carry)
-        except (OSError, ValueError) as e:
-            print(f"error: --carry: {e}", file=sys.stderr)
-            return 2
-    claims = leaderboard.claim_rows(found, args.runs)
-    figures = _figures(found, darwin, args.runs, args.out, args.gaits)
-    lines = _report_lines(args.runs, found, figures, (rows, darwin, claims), skipped)
-    with open(os.path.join(args.out, "report.md"), "w", encoding="utf-8") as f:
+    if carry:
+        darwin = leaderboard.carry_darwin_rows(darwin, carry)
+    claims = leaderboard.claim_rows(found, runs)
+    _plt()
+    os.makedirs(out, exist_ok=True)
+    figures = _figures(found, darwin, runs, out, gaits)
+    lines = _report_lines(runs, found, figures, (rows, darwin, claims), skipped)
+    with open(os.path.join(out, "report.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines))
     for name, table, fields in (
         ("leaderboard.csv", rows, leaderboard.LEADERBOARD_FIELDS),
         ("darwin_leaderboard.csv", darwin, leaderboard.DARWIN_FIELDS),
         ("claims.csv", claims, leaderboard.CLAIM_FIELDS),
     ):
-        leaderboard.write_csv(os.path.join(args.out, name), table, fields)
+        leaderboard.write_csv(os.path.join(out, name), table, fields)
     made = [p for _, p in figures if p]
-    print(f"{len(made)} figures, report.md, leaderboard CSVs, claims.csv -> {args.out}")
-    return 0
+    return f"{len(made)} figures, report.md, leaderboard CSVs, claims.csv -> {out}"
+
+
+def check_matplotlib() -> None:
+    """Checks that the figures can be drawn.
+
+    Raises:
+      cli.UsageError: Without matplotlib, saying how to install it.
+    """
+    try:
+        _plt()
+    except ImportError:
+        raise cli.UsageError(
+            "the report needs matplotlib: pip install 'cpg-suite[plots]'"
+        ) from None
+
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    flags.DEFINE_string("runs", None, "Root of the run directories (an existing directory).")
+    flags.DEFINE_string("out", None, "Output folder.")
+    flags.DEFINE_bool(
+        "gaits", False, "Also render the hand-tuned and the best gait (needs EGL or OSMesa)."
+    )
+    flags.DEFINE_string(
+        "carry",
+        None,
+        "An earlier darwin_leaderboard.csv whose rows are kept for configurations without "
+        "runs under --runs.",
+    )
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    settings = cli.settings_from_flags(ReportSettings)
+    check_matplotlib()
+    print(write_report(settings.runs, settings.out, settings.gaits, settings.carry))
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    define_flags()
+    cli.run(main, output_dirs=("out",))

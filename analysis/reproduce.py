@@ -20,11 +20,23 @@ everything runs and how the outputs look, not the benchmark's results.
 
 from __future__ import annotations
 
-import argparse
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+import dataclasses
+import functools
 import os
 import subprocess
 import sys
 import time
+from collections.abc import Callable
+
+from absl import flags
+
+from analysis import leaderboard, report
+from cpg_suite import cli
 
 QUICK = {
     "pole": ["--seeds=2", "--steps=6000", "--force_steps=2000"],
@@ -59,6 +71,49 @@ FULL = {
 }
 
 
+class StepFailed(RuntimeError):
+    """An experiment's process exited with an error (its output is in the log)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class ReproduceSettings:
+    """What `python -m analysis.reproduce` runs and where.
+
+    Attributes:
+      quick: Small versions of every experiment (minutes); exactly one of quick and full.
+      full: The real experiments (hours).
+      out: The output folder: runs under `out/runs/`, the log, tables and report in it.
+      threads: Evaluator threads of CEM/CMA-ES.
+      backend: "local", or "ray": the runs of the CEM grid, the pole and NAC sweeps as Ray
+        tasks, CMA-ES's trials on Ray actors (same results).
+      ray_address: The Ray cluster for backend "ray" (host:port, "auto", or None).
+      gaits: Render the hand-tuned and the best gait (None: with `full`).
+    """
+
+    quick: bool = False
+    full: bool = False
+    out: str | None = None
+    threads: int = 2
+    backend: str = "local"
+    ray_address: str | None = None
+    gaits: bool | None = None
+
+    def __post_init__(self):
+        cli.require(
+            bool(self.quick) != bool(self.full),
+            "give exactly one of --quick and --full (small versions in minutes, or the real "
+            "experiments in hours)",
+        )
+        cli.require(bool(self.out), "--out is required: the folder the reproduction goes into")
+        cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
+        cli.require_backend(self.backend)
+
+    @property
+    def render_gaits(self) -> bool:
+        """Whether the report renders the gaits: `gaits`, or by default with `full`."""
+        return bool(self.full) if self.gaits is None else bool(self.gaits)
+
+
 def _run(args: list[str], log) -> None:
     command = [sys.executable, "-m", *args]
     log.write(f"$ {' '.join(command)}\n")
@@ -69,30 +124,6 @@ def _run(args: list[str], log) -> None:
     log.flush()
     if result.returncode != 0:
         raise RuntimeError(f"{args[0]} failed with exit code {result.returncode}; see the log")
-
-
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    size = parser.add_mutually_exclusive_group(required=True)
-    size.add_argument("--quick", action="store_true", help="small versions (minutes)")
-    size.add_argument("--full", action="store_true", help="the real experiments (hours)")
-    parser.add_argument("--out", required=True, help="output folder")
-    parser.add_argument("--threads", type=int, default=2, help="evaluator threads of CEM/CMA-ES")
-    parser.add_argument(
-        "--backend",
-        choices=["local", "ray"],
-        default="local",
-        help="ray: the runs of the CEM grid, the pole and NAC sweeps as Ray tasks, CMA-ES's "
-        "trials on Ray actors (same results)",
-    )
-    parser.add_argument("--ray_address", default=None, help="Ray cluster: host:port, or auto")
-    parser.add_argument(
-        "--gaits",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="render the hand-tuned and best gaits (default: with --full)",
-    )
-    return parser
 
 
 def experiment_steps(
@@ -135,45 +166,91 @@ def experiment_steps(
     return steps
 
 
-def _run_steps(steps: list, log_path: str) -> bool:
-    """Runs the steps as separate processes, logging their output; False on a failure."""
+def _run_steps(steps: list, log_path: str, log: Callable[[str], None]) -> None:
+    """Runs the steps as separate processes, logging their output.
+
+    Raises:
+      StepFailed: When a step exits with an error.
+    """
     start = time.perf_counter()
-    with open(log_path, "a", encoding="utf-8") as log:
+    with open(log_path, "a", encoding="utf-8") as log_file:
         for i, (title, command) in enumerate(steps, 1):
             elapsed = time.perf_counter() - start
             eta = f", about {elapsed / (i - 1) * (len(steps) - i + 1):.0f} s left" if i > 1 else ""
-            print(f"[{i}/{len(steps)}] {title} ({elapsed:.0f} s elapsed{eta})", flush=True)
+            log(f"[{i}/{len(steps)}] {title} ({elapsed:.0f} s elapsed{eta})")
             try:
-                _run(command, log)
+                _run(command, log_file)
             except RuntimeError as e:
-                print(f"error: {e} ({log_path})", file=sys.stderr)
-                return False
-    return True
+                raise StepFailed(f"{e} ({log_path})") from None
 
 
-def main(argv=None) -> int:
-    args = _parser().parse_args(argv)
-    if args.threads < 1:
-        print(f"error: --threads must be ≥ 1, got {args.threads}", file=sys.stderr)
-        return 2
-    plan = QUICK if args.quick else FULL
-    runs = os.path.join(args.out, "runs")
+_print = functools.partial(print, flush=True)
+
+
+def reproduce(settings: ReproduceSettings, log: Callable[[str], None] = _print) -> str:
+    """Runs every experiment into `<out>/runs/`, then the leaderboard and the report.
+
+    Each experiment runs as its own process (`experiment_steps`), its output appended to
+    `<out>/reproduce.log`; finished runs are resumed. Then `leaderboard.write_tables` and
+    `report.write_report` write into `<out>/`.
+
+    Args:
+      settings: Which size, where, and how the experiments run.
+      log: Receives a line per step and the tables' and report's summary lines.
+
+    Returns:
+      The last line: the time it took and where the report is.
+
+    Raises:
+      StepFailed: If an experiment fails (nothing after it runs).
+      ImportError: Without matplotlib, when the report is drawn.
+      RuntimeError: If rendering the gaits fails.
+    """
+    plan = QUICK if settings.quick else FULL
+    out = settings.out
+    runs = os.path.join(out, "runs")
     os.makedirs(runs, exist_ok=True)
     start = time.perf_counter()
-    backend = [f"--backend={args.backend}"]
-    if args.ray_address:
-        backend.append(f"--ray_address={args.ray_address}")
-    steps = experiment_steps(plan, runs, args.threads, backend)
-    if not _run_steps(steps, os.path.join(args.out, "reproduce.log")):
-        return 1
-    from analysis import leaderboard, report
+    backend = [f"--backend={settings.backend}"]
+    if settings.ray_address:
+        backend.append(f"--ray_address={settings.ray_address}")
+    steps = experiment_steps(plan, runs, settings.threads, backend)
+    _run_steps(steps, os.path.join(out, "reproduce.log"), log)
+    log(leaderboard.write_tables(runs, os.path.join(out, "leaderboard.csv")))
+    log(report.write_report(runs, out, gaits=settings.render_gaits))
+    return f"done in {time.perf_counter() - start:.0f} s: {out}/report.md"
 
-    leaderboard.main(["--runs", runs, "--out", os.path.join(args.out, "leaderboard.csv")])
-    gaits = args.full if args.gaits is None else args.gaits
-    code = report.main(["--runs", runs, "--out", args.out] + (["--gaits"] if gaits else []))
-    print(f"done in {time.perf_counter() - start:.0f} s: {args.out}/report.md")
-    return code
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    flags.DEFINE_bool("quick", False, "Small versions of every experiment (minutes).")
+    flags.DEFINE_bool("full", False, "The real experiments (hours); give one of --quick, --full.")
+    flags.DEFINE_string("out", None, "Output folder.")
+    flags.DEFINE_integer("threads", 2, "Evaluator threads of CEM/CMA-ES.")
+    flags.DEFINE_enum(
+        "backend",
+        "local",
+        list(cli.BACKENDS),
+        "ray: the runs of the CEM grid, the pole and NAC sweeps as Ray tasks, CMA-ES's "
+        "trials on Ray actors (same results).",
+    )
+    flags.DEFINE_string("ray_address", None, "Ray cluster: host:port, or auto.")
+    flags.DEFINE_bool(
+        "gaits", None, "Render the hand-tuned and best gaits (default: with --full; --nogaits)."
+    )
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    settings = cli.settings_from_flags(ReproduceSettings)
+    report.check_matplotlib()
+    try:
+        print(reproduce(settings))
+    except StepFailed as e:
+        sys.stderr.write(f"error: {e}\n")
+        raise SystemExit(1) from None
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    define_flags()
+    cli.run(main, output_dirs=("out",))

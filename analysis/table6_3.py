@@ -11,15 +11,22 @@ Run directories whose summary is missing or malformed are skipped and listed.
 
 from __future__ import annotations
 
-import argparse
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+import dataclasses
 import json
 import os
 import re
 import sys
 
 import numpy as np
+from absl import flags
 
-from analysis import published
+from analysis import leaderboard, published
+from cpg_suite import cli
 
 _RUN = re.compile(r"^(?P<setting>.+)_seed(?P<seed>\d+)$")
 
@@ -80,21 +87,59 @@ def table(by_setting: dict[str, list[dict]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", required=True, help="root of the CEM output tree")
-    parser.add_argument("--out", help="also write the table to this markdown file")
-    args = parser.parse_args(argv)
-    by_setting, skipped = collect(args.runs)
+@dataclasses.dataclass(frozen=True)
+class Table63Settings:
+    """What `python -m analysis.table6_3` reads and writes.
+
+    Attributes:
+      runs: The root of the CEM output tree; must be an existing directory.
+      out: Also write the table to this markdown file (None: print only).
+    """
+
+    runs: str | None = None
+    out: str | None = None
+
+    def __post_init__(self):
+        leaderboard.check_runs_dir(self.runs)
+
+
+def write_table(runs: str, out: str | None = None) -> tuple[str, list[str]]:
+    """Thesis Table 6.3 from the CEM runs under `runs`, written to `out` if given.
+
+    Args:
+      runs: The root of the CEM output tree (`<runs>/cem/darwin_walk/<setting>_seed<k>/`).
+      out: A markdown file to write the table to (None: none).
+
+    Returns:
+      `(table, skipped)`: the markdown table and the run directories that could not be
+      read (a missing `cem/darwin_walk` tree is one of them).
+
+    Raises:
+      OSError: If `out` cannot be written.
+    """
+    by_setting, skipped = collect(runs)
     text = table(by_setting)
+    if out:
+        with open(out, "w", encoding="utf-8") as f:
+            f.write(text)
+    return text, skipped
+
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    flags.DEFINE_string("runs", None, "Root of the CEM output tree (an existing directory).")
+    flags.DEFINE_string("out", None, "Also write the table to this markdown file.")
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    settings = cli.settings_from_flags(Table63Settings)
+    text, skipped = write_table(settings.runs, settings.out)
     print(text, end="")
     if skipped:
         print("skipped: " + "; ".join(skipped), file=sys.stderr)
-    if args.out:
-        with open(args.out, "w", encoding="utf-8") as f:
-            f.write(text)
-    return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    define_flags()
+    cli.run(main, output_files=("out",))

@@ -15,6 +15,11 @@ millimetres of displacement (the study: 0.0036 m).
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import csv
 import dataclasses
 import itertools
@@ -26,9 +31,9 @@ from collections.abc import Callable
 import pandas as pd
 from absl import flags
 
-from baselines import cli, progress
+from baselines import progress
 from baselines.gait import evaluate_gait
-from cpg_suite import cpg
+from cpg_suite import cli, cpg
 
 
 def define_flags() -> None:
@@ -218,4 +223,4 @@ def main(argv):
 
 if __name__ == "__main__":
     define_flags()
-    cli.run(main)
+    cli.run(main, output_files=("output",))

@@ -27,13 +27,19 @@ continues bit-identically), best_params.json, mean_params.json, summary.json.
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import dataclasses
 from collections.abc import Callable
 
 import numpy as np
 from absl import flags
 
-from baselines import cli, optimize, portable, progress, runs
+from baselines import optimize, portable, progress, runs
+from cpg_suite import cli
 
 # Thesis Table 6.3 (K, noise, elite), plus the variants of Sec. 6.3: the lateral penalty
 # and noise 0.2 / 1.0 (K 10, elite 2). Names are run-name prefixes.
@@ -239,4 +245,4 @@ def main(argv):
 
 if __name__ == "__main__":
     define_flags()
-    cli.run(main)
+    cli.run(main, output_dirs=("output_dir",))

@@ -29,6 +29,11 @@ benchmark functions.
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import dataclasses
 import math
 from collections.abc import Callable
@@ -36,7 +41,8 @@ from collections.abc import Callable
 import numpy as np
 from absl import flags
 
-from baselines import cli, optimize, portable, progress, runs
+from baselines import optimize, portable, progress, runs
+from cpg_suite import cli
 
 METHOD = "cmaes"  # its run directories' second level and its leaderboard rows
 
@@ -220,4 +226,4 @@ def main(argv):
 
 if __name__ == "__main__":
     define_flags()
-    cli.run(main)
+    cli.run(main, output_dirs=("output_dir",))

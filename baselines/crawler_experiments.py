@@ -23,6 +23,11 @@ in the main table. `--resume` reuses finished runs. Not a test: an experiment (~
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import dataclasses
 import os
 
@@ -30,9 +35,10 @@ import numpy as np
 import pandas as pd
 from absl import flags
 
-from baselines import cli, progress, runs
+from baselines import progress, runs
 from baselines.tabular import models, planning, runner
 from baselines.tabular.settings import TabularSettings
+from cpg_suite import cli
 
 
 def define_flags() -> None:
@@ -369,4 +375,4 @@ def main(argv: list[str]) -> None:
 
 if __name__ == "__main__":
     define_flags()
-    cli.run(main)
+    cli.run(main, output_dirs=("output_dir",))

@@ -11,6 +11,11 @@ control step and is the reference that faster evaluators are checked against.
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import dataclasses
 import json
 from collections.abc import Iterator
@@ -18,10 +23,9 @@ from collections.abc import Iterator
 import numpy as np
 from absl import flags
 
-from baselines import cli
 from baselines.batch_eval import BatchEvaluator
 from baselines.gait import DARWIN_TASKS, evaluate_gait, parse_params, summarize
-from cpg_suite import cpg
+from cpg_suite import cli, cpg
 
 
 def define_flags() -> None:

@@ -43,6 +43,11 @@ CPG alone) and after learning.
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import dataclasses
 import math
 import os
@@ -53,8 +58,8 @@ import numpy as np
 from absl import flags
 
 import cpg_suite
-from baselines import cli, progress, runs
-from cpg_suite import cpg
+from baselines import progress, runs
+from cpg_suite import cli, cpg
 
 TASKS = ("darwin_balance", "darwin_walk")
 N_FEATURES = 15  # 1, 12 joint positions, 2 phases (thesis Sec. 5.4)
@@ -570,4 +575,4 @@ def main(argv):
 
 if __name__ == "__main__":
     define_flags()
-    cli.run(main)
+    cli.run(main, output_dirs=("output_dir",))

@@ -15,14 +15,20 @@ after learning, the paired difference with a 95 % t-interval, max |θ| and diver
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import dataclasses
 import os
 
 import numpy as np
 from absl import flags
 
-from baselines import cli, nac, progress, runs
+from baselines import nac, progress, runs
 from baselines.stats import mean_std_ci95
+from cpg_suite import cli
 
 
 def define_flags() -> None:
@@ -234,4 +240,4 @@ def main(argv):
 
 if __name__ == "__main__":
     define_flags()
-    cli.run(main)
+    cli.run(main, output_dirs=("output_dir",))

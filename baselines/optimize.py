@@ -28,9 +28,9 @@ from typing import Protocol
 import numpy as np
 from absl import flags
 
-from baselines import cli, progress, protocol, ray_backend, runs, score
+from baselines import progress, protocol, ray_backend, runs, score
 from baselines.batch_eval import BatchEvaluator, BatchResult
-from cpg_suite import cpg, feedback
+from cpg_suite import cli, cpg, feedback
 
 TASKS = protocol.TIERS  # Optimizers may train on any tier.
 

@@ -18,6 +18,11 @@ and γ experiments; ours are α = 0.01, ε = 0, F = 0.5 N (the issue's acceptanc
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import dataclasses
 import os
 import time
@@ -26,9 +31,10 @@ import numpy as np
 import pandas as pd
 from absl import flags
 
-from baselines import cli, progress, runs
+from baselines import progress, runs
 from baselines.tabular import runner
 from baselines.tabular.settings import TabularSettings
+from cpg_suite import cli
 
 
 def define_flags() -> None:
@@ -569,4 +575,4 @@ def main(argv: list[str]) -> None:
 
 if __name__ == "__main__":
     define_flags()
-    cli.run(main)
+    cli.run(main, output_dirs=("output_dir",))

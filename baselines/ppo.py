@@ -35,6 +35,11 @@ selected_model.zip + selected_vecnormalize.pkl (the reported policy; load with
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import dataclasses
 import io
 import math
@@ -51,8 +56,8 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 import cpg_suite
-from baselines import cli, progress, protocol, runs, score
-from cpg_suite import darwin, residual, vector
+from baselines import progress, protocol, runs, score
+from cpg_suite import cli, darwin, residual, vector
 
 METHOD = "ppo"  # its run directories' second level and its leaderboard rows
 TASKS = protocol.TIERS
@@ -808,4 +813,4 @@ def main(argv):
 
 if __name__ == "__main__":
     define_flags()
-    cli.run(main)
+    cli.run(main, output_dirs=("output_dir",))

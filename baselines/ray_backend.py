@@ -31,13 +31,13 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from baselines.batch_eval import BatchEvaluator, BatchResult, check_amplitudes
-from baselines.cli import BACKENDS, CONTROLLERS
+from cpg_suite.cli import BACKENDS, CONTROLLERS, UsageError
 
 _TASK_RETRIES = 3  # runs of a grid run again if their worker process dies
 
 
-class ClusterUnreachable(ConnectionError):
-    """No Ray cluster answers at the address given."""
+class ClusterUnreachable(UsageError, ConnectionError):
+    """No Ray cluster answers at the address given (a usage error: one line, exit 2)."""
 
 
 def _ray():

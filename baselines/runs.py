@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from baselines import cli
+from cpg_suite import cli
 
 
 @dataclasses.dataclass(frozen=True)

@@ -16,6 +16,11 @@ numbers stepping the environment gives (tested).
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import dataclasses
 import json
 import os
@@ -27,9 +32,9 @@ from absl import flags
 from scipy import stats
 
 import cpg_suite
-from baselines import cli, gait, progress, protocol, ray_backend, runs
+from baselines import gait, progress, protocol, ray_backend, runs
 from baselines import quality as gait_quality
-from cpg_suite import cpg, feedback
+from cpg_suite import cli, cpg, feedback
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 
 _BOOTSTRAP_RESAMPLES = 2000
@@ -399,4 +404,4 @@ def main(argv):
 
 if __name__ == "__main__":
     define_flags()
-    cli.run(main)
+    cli.run(main, output_dirs=("out",))

@@ -20,16 +20,22 @@ compare.
 
 from __future__ import annotations
 
-import argparse
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+import dataclasses
 import time
 
 import mujoco
 import numpy as np
+from absl import flags
 from dm_env import specs
 from mujoco import rollout
 
 import cpg_suite
-from cpg_suite import cpg
+from cpg_suite import cli, cpg
 
 PEERS = {"pole": ("cartpole", "balance"), "darwin": ("humanoid", "walk")}
 
@@ -91,16 +97,41 @@ def time_raw(env, actions, repeats: int) -> float:
     return controls.shape[1] / best
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--steps", type=int, default=10000, help="control steps per timing")
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--tasks", default=",".join(cpg_suite.TASK_IDS))
-    args = parser.parse_args()
-    tasks = [t for t in args.tasks.split(",") if t]
-    for t in tasks:
-        cpg_suite.split_task_id(t)  # Raises with the valid ids.
+@dataclasses.dataclass(frozen=True)
+class BenchEnvSettings:
+    """What the benchmark times.
 
+    Attributes:
+      steps: Control steps per timing.
+      repeats: Timings per figure (the best is kept).
+      tasks: Task ids (None: every task of `cpg_suite.TASK_IDS`).
+    """
+
+    steps: int = 10000
+    repeats: int = 3
+    tasks: tuple[str, ...] | None = None
+
+    def __post_init__(self):
+        cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
+        cli.require(self.repeats >= 1, f"--repeats must be ≥ 1, got {self.repeats}")
+        tasks = cpg_suite.TASK_IDS if self.tasks is None else self.tasks
+        tasks = tuple(t for t in tasks if t)
+        cli.require(bool(tasks), "--tasks must name at least one task")
+        for t in tasks:
+            try:
+                cpg_suite.split_task_id(t)
+            except ValueError as e:
+                raise ValueError(f"--tasks: {e}") from None
+        object.__setattr__(self, "tasks", tasks)
+
+
+def benchmark(settings: BenchEnvSettings) -> None:
+    """Times each task and prints a table row per task as it is measured.
+
+    Args:
+      settings: Steps, repeats and tasks.
+    """
+    tasks, steps, repeats = settings.tasks, settings.steps, settings.repeats
     header = (
         f"{'task':24s} {'sub':>3s} {'env ctrl/s':>10s} {'env phys/s':>10s} "
         f"{'raw phys/s':>10s} {'env/raw':>7s} {'peer':>17s} {'peer ctrl/s':>11s} "
@@ -113,9 +144,9 @@ def main() -> None:
         domain, _ = cpg_suite.split_task_id(task_id)
         env = cpg_suite.load(task_id, task_kwargs={"random": 0})
         n_sub = int(round(env.control_timestep() / env.physics.model.opt.timestep))
-        actions = make_actions(env, domain, args.steps)
-        raw = time_raw(env, actions, args.repeats)
-        rate = time_env(env, actions, args.repeats)
+        actions = make_actions(env, domain, steps)
+        raw = time_raw(env, actions, repeats)
+        rate = time_env(env, actions, repeats)
         peer = PEERS.get(domain)
         peer_name, peer_rate = "-", float("nan")
         if peer is not None:
@@ -124,8 +155,8 @@ def main() -> None:
                 from dm_control import suite  # After cpg_suite has chosen the GL backend.
 
                 peer_env = suite.load(*peer, task_kwargs={"random": 0})
-                peer_actions = make_actions(peer_env, "peer", args.steps)
-                peer_rates[peer] = time_env(peer_env, peer_actions, args.repeats)
+                peer_actions = make_actions(peer_env, "peer", steps)
+                peer_rates[peer] = time_env(peer_env, peer_actions, repeats)
             peer_rate = peer_rates[peer]
         print(
             f"{task_id:24s} {n_sub:3d} {rate:10.0f} {rate * n_sub:10.0f} {raw:10.0f} "
@@ -135,5 +166,19 @@ def main() -> None:
         )
 
 
+def define_flags() -> None:
+    """Defines this script's command-line flags (only when it runs as a program)."""
+    d = BenchEnvSettings()
+    flags.DEFINE_integer("steps", d.steps, "Control steps per timing.")
+    flags.DEFINE_integer("repeats", d.repeats, "Timings per figure (the best is kept).")
+    flags.DEFINE_list("tasks", list(d.tasks), "Task ids, comma-separated.")
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    benchmark(cli.settings_from_flags(BenchEnvSettings))
+
+
 if __name__ == "__main__":
-    main()
+    define_flags()
+    cli.run(main)

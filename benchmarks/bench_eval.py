@@ -18,18 +18,24 @@ Absolute rates are noisy on a shared machine; the ratios are measured back to ba
 
 from __future__ import annotations
 
-import argparse
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+import dataclasses
 import tempfile
 import time
 
 import mujoco
 import numpy as np
+from absl import flags
 from mujoco import rollout
 
 from baselines import cem, runs
 from baselines.batch_eval import BatchEvaluator
 from baselines.gait import evaluate_gait
-from cpg_suite import cpg
+from cpg_suite import cli, cpg
 
 
 def raw_rollout_rate(
@@ -61,23 +67,43 @@ def evaluator_rate(evaluator: BatchEvaluator, amplitudes, seed: int, repeats: in
     return steps / best, best
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--candidates", type=int, default=20)
-    parser.add_argument("--repeats", type=int, default=2)
-    parser.add_argument("--cem_rounds", type=int, default=10)
-    args = parser.parse_args()
+@dataclasses.dataclass(frozen=True)
+class BenchEvalSettings:
+    """What the benchmark measures.
+
+    Attributes:
+      candidates: Candidates around the hand-tuned gait per evaluation.
+      repeats: Timings per figure (the best is kept).
+      cem_rounds: Rounds of the timed CEM run.
+    """
+
+    candidates: int = 20
+    repeats: int = 2
+    cem_rounds: int = 10
+
+    def __post_init__(self):
+        cli.require(self.candidates >= 1, f"--candidates must be ≥ 1, got {self.candidates}")
+        cli.require(self.repeats >= 1, f"--repeats must be ≥ 1, got {self.repeats}")
+        cli.require(self.cem_rounds >= 1, f"--cem_rounds must be ≥ 1, got {self.cem_rounds}")
+
+
+def benchmark(settings: BenchEvalSettings) -> None:
+    """Measures the evaluator against raw rollouts, env stepping and a CEM run; prints each.
+
+    Args:
+      settings: Candidates, repeats and CEM rounds.
+    """
     rng = np.random.default_rng(0)
     hand = cpg.amplitudes_from("hand_tuned")
-    amplitudes = hand + rng.standard_normal((args.candidates, 11))
+    amplitudes = hand + rng.standard_normal((settings.candidates, 11))
 
-    print(f"{args.candidates} candidates around the hand-tuned gait, 1000 control steps each")
+    print(f"{settings.candidates} candidates around the hand-tuned gait, 1000 control steps each")
     raw_rates = {}
     for threads in (1, 2):
         with BatchEvaluator(threads=threads) as evaluator:
             evaluator.evaluate(amplitudes[:1], [0])  # warm the initial-state cache
-            rate, seconds = evaluator_rate(evaluator, amplitudes, 0, args.repeats)
-            raw = raw_rollout_rate(evaluator, amplitudes, 0, threads, args.repeats)
+            rate, seconds = evaluator_rate(evaluator, amplitudes, 0, settings.repeats)
+            raw = raw_rollout_rate(evaluator, amplitudes, 0, threads, settings.repeats)
             raw_rates[threads] = raw
             print(
                 f"threads={threads}: evaluator {rate:,.0f} steps/s ({seconds:.2f} s), raw "
@@ -95,17 +121,31 @@ def main() -> None:
     )
 
     with tempfile.TemporaryDirectory() as out:
-        settings = cem.CEMSettings(rounds=args.cem_rounds)
+        cem_settings = cem.CEMSettings(rounds=settings.cem_rounds)
         options = runs.RunOptions(output_dir=out, run_name="bench", threads=2)
         start = time.perf_counter()
-        _, summary = cem.run_cem(settings, options, log=lambda line: None)
+        _, summary = cem.run_cem(cem_settings, options, log=lambda line: None)
         wall = time.perf_counter() - start
     ideal = summary["sim_steps"] / raw_rates[2]
     print(
-        f"CEM K=50, {args.cem_rounds} rounds: {summary['sim_steps']:,} steps in {wall:.1f} s; "
+        f"CEM K=50, {settings.cem_rounds} rounds: {summary['sim_steps']:,} steps in {wall:.1f} s; "
         f"ideal (steps / raw 2-thread rate) {ideal:.1f} s; wall/ideal = {wall / ideal:.3f}"
     )
 
 
+def define_flags() -> None:
+    """Defines this script's command-line flags (only when it runs as a program)."""
+    d = BenchEvalSettings()
+    flags.DEFINE_integer("candidates", d.candidates, "Candidates around the hand-tuned gait.")
+    flags.DEFINE_integer("repeats", d.repeats, "Timings per figure (the best is kept).")
+    flags.DEFINE_integer("cem_rounds", d.cem_rounds, "Rounds of the timed CEM run.")
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    benchmark(cli.settings_from_flags(BenchEvalSettings))
+
+
 if __name__ == "__main__":
-    main()
+    define_flags()
+    cli.run(main)

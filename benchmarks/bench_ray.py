@@ -19,18 +19,24 @@ r"""Ray backend vs local threads on the same machine, in one run, and a projecti
 
 from __future__ import annotations
 
-import argparse
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 import csv
+import dataclasses
 import math
 import os
 import statistics
 import time
 
 import numpy as np
+from absl import flags
 
 from baselines import protocol, ray_backend
 from baselines.batch_eval import BatchEvaluator
-from cpg_suite import cpg
+from cpg_suite import cli, cpg
 
 _K, _STARTS, _STEPS = 50, 2, 1000
 _TIER = "darwin_walk_randomized"
@@ -121,32 +127,50 @@ def project(step_s: float, overhead_s: float, workers: int) -> dict:
     return {"tasks_h": tasks / 3600, "spread_h": spread / 3600}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--rounds", type=int, default=2)
-    parser.add_argument("--cpus", type=int, default=2)
-    args = parser.parse_args()
-    ray_backend.connect(None, num_cpus=args.cpus)
+@dataclasses.dataclass(frozen=True)
+class BenchRaySettings:
+    """What the benchmark measures.
+
+    Attributes:
+      rounds: Rounds of K = 50 candidates × 2 starts.
+      cpus: Local evaluator threads, and one-thread actors of the private Ray instance.
+    """
+
+    rounds: int = 2
+    cpus: int = 2
+
+    def __post_init__(self):
+        cli.require(self.rounds >= 1, f"--rounds must be ≥ 1, got {self.rounds}")
+        cli.require(self.cpus >= 1, f"--cpus must be ≥ 1, got {self.cpus}")
+
+
+def benchmark(settings: BenchRaySettings) -> None:
+    """Measures Ray against local threads and the overhead per chunk, prints a projection.
+
+    Args:
+      settings: Rounds and CPUs.
+    """
+    ray_backend.connect(None, num_cpus=settings.cpus)
     try:
-        t = throughput(args.rounds, args.cpus)
+        t = throughput(settings.rounds, settings.cpus)
         overhead = chunk_overhead()
     finally:
         ray_backend.disconnect()
     local, remote = t["trials"] / t["local_s"], t["trials"] / t["ray_s"]
     print(
-        f"K={_K} x {_STARTS} starts x {args.rounds} rounds on {_TIER}, {args.cpus} CPUs: "
+        f"K={_K} x {_STARTS} starts x {settings.rounds} rounds on {_TIER}, {settings.cpus} CPUs: "
         f"local {local:.2f} trials/s ({t['local_s']:.1f} s), ray {remote:.2f} trials/s "
         f"({t['ray_s']:.1f} s); ray/local throughput {remote / local:.2f} (goal >= 0.8); "
         f"results equal"
     )
     print(f"overhead per chunk (ray minus local, one-step call, median): {overhead * 1e3:.1f} ms")
-    step_s = t["local_s"] * args.cpus / t["steps"]  # seconds per physics step on one CPU
+    step_s = t["local_s"] * settings.cpus / t["steps"]  # seconds per physics step on one CPU
     total, longest, runs = reference_budget()
     print(
         f"reference results: {runs} runs, {total / 1e6:.0f} M training physics steps "
         f"(+ {runs} x {_SCORING_TRIALS} test trials); one CPU: {step_s * 1e6:.1f} us/step"
     )
-    for workers in (args.cpus, 10, 100):
+    for workers in (settings.cpus, 10, 100):
         p = project(step_s, overhead, workers)
         print(
             f"  {workers:3d} workers: runs as tasks {p['tasks_h']:.2f} h, "
@@ -154,5 +178,18 @@ def main() -> None:
         )
 
 
+def define_flags() -> None:
+    """Defines this script's command-line flags (only when it runs as a program)."""
+    d = BenchRaySettings()
+    flags.DEFINE_integer("rounds", d.rounds, "Rounds of K = 50 candidates x 2 starts.")
+    flags.DEFINE_integer("cpus", d.cpus, "Local threads, and Ray actors of one thread.")
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    benchmark(cli.settings_from_flags(BenchRaySettings))
+
+
 if __name__ == "__main__":
-    main()
+    define_flags()
+    cli.run(main)

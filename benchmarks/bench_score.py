@@ -9,15 +9,22 @@ the same threads measured in the same run (their ratio is what the evaluator cos
 
 from __future__ import annotations
 
-import argparse
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+import dataclasses
 import time
 
 import mujoco
 import numpy as np
+from absl import flags
 from mujoco import rollout
 
 from baselines import gait, protocol, score
 from baselines.batch_eval import BatchEvaluator
+from cpg_suite import cli
 
 
 def raw_rate(amplitudes: np.ndarray, threads: int, trials: int = 20) -> float:
@@ -33,27 +40,62 @@ def raw_rate(amplitudes: np.ndarray, threads: int, trials: int = 20) -> float:
         return trials * len(ctrl) / (time.perf_counter() - start)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--params", default="hand_tuned")
-    parser.add_argument("--threads", type=int, default=2)
-    args = parser.parse_args()
-    amplitudes = gait.parse_params(args.params)
+@dataclasses.dataclass(frozen=True)
+class BenchScoreSettings:
+    """What the benchmark scores.
+
+    Attributes:
+      params: A preset or a JSON file of the 11 amplitudes (`baselines.gait.parse_params`).
+      threads: Evaluator threads.
+    """
+
+    params: str = "hand_tuned"
+    threads: int = 2
+
+    def __post_init__(self):
+        cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
+
+
+def benchmark(settings: BenchScoreSettings, amplitudes: np.ndarray) -> None:
+    """Scores the gait on every tier, then times a raw rollout; prints the times and rates.
+
+    Args:
+      settings: The threads (`params` names the gait in `amplitudes`).
+      amplitudes: The 11 amplitudes, degrees.
+    """
     total, steps = 0.0, 0
     for tier in protocol.TIERS:
-        settings = score.ScoreSettings(tiers=(tier,), threads=args.threads)
+        tier_settings = score.ScoreSettings(tiers=(tier,), threads=settings.threads)
         start = time.perf_counter()
-        card = score.score_gait(amplitudes, settings)
+        card = score.score_gait(amplitudes, tier_settings)
         wall = time.perf_counter() - start
         total += wall
         steps += card["scoring_sim_steps"]
         print(f"{tier:24s} {wall:6.1f} s  {card['scoring_sim_steps']:>10,} physics steps")
-    raw = raw_rate(amplitudes, args.threads)
+    raw = raw_rate(amplitudes, settings.threads)
     print(
         f"all tiers: {total:.1f} s for {steps:,} physics steps = {steps / total:,.0f} steps/s; "
         f"raw nominal rollout {raw:,.0f} steps/s (ratio {steps / total / raw:.2f})"
     )
 
 
+def define_flags() -> None:
+    """Defines this script's command-line flags (only when it runs as a program)."""
+    d = BenchScoreSettings()
+    flags.DEFINE_string("params", d.params, "Preset or a JSON file of amplitudes.")
+    flags.DEFINE_integer("threads", d.threads, "Evaluator threads.")
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    settings = cli.settings_from_flags(BenchScoreSettings)
+    try:
+        amplitudes = gait.parse_params(settings.params)
+    except ValueError as e:
+        raise cli.UsageError(str(e)) from None
+    benchmark(settings, amplitudes)
+
+
 if __name__ == "__main__":
-    main()
+    define_flags()
+    cli.run(main)

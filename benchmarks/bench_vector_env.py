@@ -18,17 +18,23 @@ their ratio (goal ≥ 0.8).
 
 from __future__ import annotations
 
-import argparse
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+import dataclasses
 import time
 
 import gymnasium
 import mujoco
 import numpy as np
+from absl import flags
 from mujoco import rollout
 
 import cpg_suite
 import cpg_suite.gym  # registers the environments
-from cpg_suite import cpg
+from cpg_suite import cli, cpg
 
 _ENV_ID, _SEED = "cpg_suite/darwin_walk-v0", 100
 
@@ -67,23 +73,45 @@ def _raw(vector_env, controls: np.ndarray, threads: int) -> tuple[float, int]:
         return time.perf_counter() - start, control.shape[0] * control.shape[1]
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--num_envs", type=int, default=16)
-    parser.add_argument("--threads", type=int, default=2)
-    parser.add_argument("--steps", type=int, default=250)
-    parser.add_argument("--repeats", type=int, default=3)
-    args = parser.parse_args()
-    actions, controls = _gait(args.steps)
-    sync = gymnasium.make_vec(_ENV_ID, num_envs=args.num_envs, vectorization_mode="sync")
-    ours = gymnasium.make_vec(_ENV_ID, num_envs=args.num_envs, threads=args.threads)
+@dataclasses.dataclass(frozen=True)
+class BenchVectorEnvSettings:
+    """What the benchmark measures.
+
+    Attributes:
+      num_envs: Sub-environments (the same number of rollouts).
+      threads: Threads of the vector env and of the rollout.
+      steps: Control steps per episode.
+      repeats: Alternating repetitions of the three.
+    """
+
+    num_envs: int = 16
+    threads: int = 2
+    steps: int = 250
+    repeats: int = 3
+
+    def __post_init__(self):
+        cli.require(self.num_envs >= 1, f"--num_envs must be ≥ 1, got {self.num_envs}")
+        cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
+        cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
+        cli.require(self.repeats >= 1, f"--repeats must be ≥ 1, got {self.repeats}")
+
+
+def benchmark(settings: BenchVectorEnvSettings) -> None:
+    """Times sync, vector and rollout alternately; prints their rates and ratios.
+
+    Args:
+      settings: Environments, threads, steps and repeats.
+    """
+    actions, controls = _gait(settings.steps)
+    sync = gymnasium.make_vec(_ENV_ID, num_envs=settings.num_envs, vectorization_mode="sync")
+    ours = gymnasium.make_vec(_ENV_ID, num_envs=settings.num_envs, threads=settings.threads)
     wall = dict.fromkeys(("sync", "vector", "rollout"), 0.0)
     count = dict.fromkeys(wall, 0)
-    for _ in range(args.repeats):
+    for _ in range(settings.repeats):
         for name, (seconds, n) in (
             ("sync", _episode(sync, actions)),
             ("vector", _episode(ours, actions)),
-            ("rollout", _raw(ours, controls, args.threads)),
+            ("rollout", _raw(ours, controls, settings.threads)),
         ):
             wall[name] += seconds
             count[name] += n
@@ -93,8 +121,8 @@ def main() -> None:
         "rollout": count["rollout"] / wall["rollout"],
     }
     print(
-        f"N={args.num_envs}, {args.threads} threads, {args.steps} control steps x "
-        f"{args.repeats}: sync {control_rate['sync']:,.0f} control steps/s, vector "
+        f"N={settings.num_envs}, {settings.threads} threads, {settings.steps} control steps x "
+        f"{settings.repeats}: sync {control_rate['sync']:,.0f} control steps/s, vector "
         f"{control_rate['vector']:,.0f}; vector/sync "
         f"{control_rate['vector'] / control_rate['sync']:.2f} (goal >= 3)"
     )
@@ -105,5 +133,20 @@ def main() -> None:
     )
 
 
+def define_flags() -> None:
+    """Defines this script's command-line flags (only when it runs as a program)."""
+    d = BenchVectorEnvSettings()
+    flags.DEFINE_integer("num_envs", d.num_envs, "Sub-environments.")
+    flags.DEFINE_integer("threads", d.threads, "Threads of the vector env and the rollout.")
+    flags.DEFINE_integer("steps", d.steps, "Control steps per episode.")
+    flags.DEFINE_integer("repeats", d.repeats, "Alternating repetitions.")
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    benchmark(cli.settings_from_flags(BenchVectorEnvSettings))
+
+
 if __name__ == "__main__":
-    main()
+    define_flags()
+    cli.run(main)

@@ -10,35 +10,48 @@ Task ids are `<domain>_<task>`; `ALL_TASKS`, `BENCHMARKING` and `TASKS_BY_DOMAIN
 `(domain, task)` pairs as in dm_control.
 
 Importing the package changes no process-wide state: no environment variables, random
-generators, logging or absl flags. Rendering uses whatever backend MuJoCo's `MUJOCO_GL`
-selects; on a machine without a display set `MUJOCO_GL=egl` (GPU or Mesa EGL) or
-`MUJOCO_GL=osmesa` (software) before the first import of dm_control.
+generators, logging or absl flags, and does not load dm_control: the domains load on first
+use. Rendering uses whatever backend dm_control's `MUJOCO_GL` selects when it loads; on a
+machine without a display set `MUJOCO_GL=egl` (GPU or Mesa EGL) or `MUJOCO_GL=osmesa`
+(software) before then.
 """
 
 from __future__ import annotations
 
 import collections
-import inspect
+import functools
+import importlib
+from typing import TYPE_CHECKING, Any
 
-from dm_control.rl import control
-
-# Each domain module registers its tasks in its SUITE.
-from cpg_suite import crawler, darwin, pole  # noqa: F401
+if TYPE_CHECKING:
+    from dm_control.rl import control
 
 __version__ = "0.1.0"
 
-_DOMAINS = {
-    name: module
-    for name, module in locals().items()
-    if inspect.ismodule(module) and hasattr(module, "SUITE")
-}
+# The domain modules; each registers its tasks in its SUITE. They (and with them dm_control)
+# are imported on first use, so that a program can choose MuJoCo's rendering backend after
+# `import cpg_suite` (`cpg_suite.cli.without_rendering`).
+_DOMAIN_NAMES = ("crawler", "darwin", "pole")
+# The task lists, computed from the domains' SUITEs on first access.
+_TASK_LISTS = (
+    "ALL_TASKS",
+    "BENCHMARKING",
+    "EXTRA",
+    "NO_REWARD_VIZ",
+    "REWARD_VIZ",
+    "TASKS_BY_DOMAIN",
+    "TASK_IDS",
+)
+
+
+def _domains() -> dict[str, Any]:
+    return {name: importlib.import_module(f"cpg_suite.{name}") for name in _DOMAIN_NAMES}
 
 
 def _get_tasks(tag: str | None) -> tuple[tuple[str, str], ...]:
     result = []
-    for domain_name in sorted(_DOMAINS):
-        suite = _DOMAINS[domain_name].SUITE
-        tasks = suite if tag is None else suite.tagged(tag)
+    for domain_name, module in sorted(_domains().items()):
+        tasks = module.SUITE if tag is None else module.SUITE.tagged(tag)
         result.extend((domain_name, task_name) for task_name in tasks.keys())
     return tuple(result)
 
@@ -50,16 +63,32 @@ def _get_tasks_by_domain(tasks) -> dict[str, tuple[str, ...]]:
     return {k: tuple(v) for k, v in result.items()}
 
 
-# All (domain, task) pairs.
-ALL_TASKS = _get_tasks(tag=None)
-# The tasks the study reports numbers on.
-BENCHMARKING = _get_tasks("benchmarking")
-EXTRA = tuple(sorted(set(ALL_TASKS) - set(BENCHMARKING)))
-NO_REWARD_VIZ = _get_tasks("no_reward_visualization")
-REWARD_VIZ = tuple(sorted(set(ALL_TASKS) - set(NO_REWARD_VIZ)))
-TASKS_BY_DOMAIN = _get_tasks_by_domain(ALL_TASKS)
-# Task ids: '<domain>_<task>'.
-TASK_IDS = tuple(f"{d}_{t}" for d, t in ALL_TASKS)
+@functools.cache
+def _task_lists() -> dict[str, Any]:
+    all_tasks = _get_tasks(tag=None)
+    benchmarking = _get_tasks("benchmarking")  # the tasks the study reports numbers on
+    no_reward_viz = _get_tasks("no_reward_visualization")
+    return {
+        "ALL_TASKS": all_tasks,
+        "BENCHMARKING": benchmarking,
+        "EXTRA": tuple(sorted(set(all_tasks) - set(benchmarking))),
+        "NO_REWARD_VIZ": no_reward_viz,
+        "REWARD_VIZ": tuple(sorted(set(all_tasks) - set(no_reward_viz))),
+        "TASKS_BY_DOMAIN": _get_tasks_by_domain(all_tasks),
+        "TASK_IDS": tuple(f"{d}_{t}" for d, t in all_tasks),  # '<domain>_<task>'
+    }
+
+
+def __getattr__(name: str) -> Any:
+    if name in _TASK_LISTS:
+        return _task_lists()[name]
+    if name in _DOMAIN_NAMES:
+        return importlib.import_module(f"cpg_suite.{name}")
+    raise AttributeError(f"module 'cpg_suite' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_TASK_LISTS) | set(_DOMAIN_NAMES))
 
 
 def split_task_id(task_id: str) -> tuple[str, str]:
@@ -69,8 +98,9 @@ def split_task_id(task_id: str) -> tuple[str, str]:
       ValueError: If `task_id` is not a known task id; the message lists the valid ids.
     """
     domain, _, task = str(task_id).partition("_")
-    if (domain, task) not in ALL_TASKS:
-        raise ValueError(f"unknown task {task_id!r}; valid tasks: {', '.join(TASK_IDS)}")
+    lists = _task_lists()
+    if (domain, task) not in lists["ALL_TASKS"]:
+        raise ValueError(f"unknown task {task_id!r}; valid tasks: {', '.join(lists['TASK_IDS'])}")
     return domain, task
 
 
@@ -100,13 +130,14 @@ def load(
     """
     if task_name is None:
         domain_name, task_name = split_task_id(domain_name)
-    elif (domain_name, task_name) not in ALL_TASKS:
+    elif (domain_name, task_name) not in _task_lists()["ALL_TASKS"]:
         raise ValueError(
-            f"unknown task {domain_name!r}/{task_name!r}; valid tasks: {', '.join(TASK_IDS)}"
+            f"unknown task {domain_name!r}/{task_name!r}; valid tasks: "
+            f"{', '.join(_task_lists()['TASK_IDS'])}"
         )
     task_kwargs = dict(task_kwargs or {})
     if environment_kwargs is not None:
         task_kwargs["environment_kwargs"] = environment_kwargs
-    env = _DOMAINS[domain_name].SUITE[task_name](**task_kwargs)
+    env = _domains()[domain_name].SUITE[task_name](**task_kwargs)
     env.task.visualize_reward = visualize_reward
     return env

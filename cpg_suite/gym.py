@@ -21,7 +21,7 @@ from __future__ import annotations
 import gymnasium
 from gymnasium.envs.registration import register
 
-import cpg_suite  # First: chooses the headless GL backend before dm_control loads.
+import cpg_suite
 
 
 def make_env(

@@ -1,7 +1,8 @@
 """Rendering open-loop CPG gaits of the DARwIn-OP: frames, filmstrips and videos (library).
 
 Rendering needs an OpenGL backend chosen with `MUJOCO_GL` before dm_control is first
-imported (`egl` or `osmesa` on a machine without a display); this module never sets it.
+imported (`egl` or `osmesa` on a machine without a display); this module never sets it
+(`cpg_suite.cli.choose_renderer` does, for the program that renders).
 The command line is `python -m cpg_suite.explore`; `RenderSettings` are its flags and
 `render_files` what it runs.
 """

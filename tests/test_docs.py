@@ -92,3 +92,41 @@ def test_no_citation_points_outside_the_repository():
 def test_readme_links_the_docs():
     with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
         assert "](docs/README.md)" in f.read()
+
+
+# An absolute path of some machine: /dir/name (not part of a URL or a relative path), or a
+# Windows drive path. Shipped documents name paths relative to the repository or `runs/`.
+ABSOLUTE_PATH = re.compile(r"(?<![\w.:/~\-\]\)])/[A-Za-z_][\w.-]+/[\w.-]+|\b[A-Za-z]:\\\w")
+
+
+def _shipped_documents():
+    yield os.path.join(ROOT, "README.md")
+    for top in ("docs", "results"):
+        for dirpath, _, names in os.walk(os.path.join(ROOT, top)):
+            for name in names:
+                if name.endswith((".md", ".csv", ".json", ".txt")):
+                    yield os.path.join(dirpath, name)
+
+
+def test_absolute_path_pattern():
+    found = [ABSOLUTE_PATH.search(s) for s in ("`/work/runs/full`", "--out=/tmp/pc", r"C:\runs")]
+    assert all(found)
+    for relative in (
+        "runs/cem",
+        "https://x.org/a/b",
+        "0.43 N·m·s/rad",
+        "max |Q|/2",
+        "runs/cem/a.json",
+    ):
+        assert ABSOLUTE_PATH.search(relative) is None, relative
+
+
+def test_shipped_documents_name_no_machine_paths():
+    found = []
+    for path in _shipped_documents():
+        with open(path, encoding="utf-8") as f:
+            for number, line in enumerate(f, 1):
+                match = ABSOLUTE_PATH.search(line)
+                if match:
+                    found.append(f"{os.path.relpath(path, ROOT)}:{number}: {match.group(0)}")
+    assert not found, "absolute paths in shipped documents:\n" + "\n".join(found)

@@ -43,7 +43,8 @@ def test_leaderboard_and_claims(tmp_path, capsys):
         "claim_id,statement,rule,evidence,holds\nPB-8,two actions fail,r,e,yes\n"
     )
     out = tmp_path / "out" / "leaderboard.csv"
-    assert leaderboard.main(["--runs", str(runs), "--out", str(out)]) == 0
+    line = leaderboard.write_tables(str(runs), str(out))
+    assert line.startswith("5 runs, ") and str(out) in line
     rows = _read(out)
     assert list(rows[0]) == leaderboard.LEADERBOARD_FIELDS
     k50 = [r for r in rows if r["config"] == "K50_n0.8_e2" and r["metric"] == "best_distance_m"][0]
@@ -60,9 +61,12 @@ def test_leaderboard_and_claims(tmp_path, capsys):
     assert "broken_seed0" in err
 
 
-def test_missing_runs_directory(tmp_path, capsys):
-    assert leaderboard.main(["--runs", str(tmp_path / "nope")]) == 2
-    assert "not a directory" in capsys.readouterr().err
+def test_missing_runs_directory(tmp_path):
+    with pytest.raises(ValueError, match="not a directory"):
+        leaderboard.write_tables(str(tmp_path / "nope"), str(tmp_path / "leaderboard.csv"))
+    with pytest.raises(ValueError, match="not a directory"):
+        leaderboard.LeaderboardSettings(runs=str(tmp_path / "nope"))
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_published_data_is_complete():

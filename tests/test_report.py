@@ -43,7 +43,8 @@ def test_report_from_small_runs(tmp_path):
     bad.mkdir()
     (bad / "summary.json").write_text("nope")
     out = tmp_path / "report"
-    assert report.main(["--runs", str(runs), "--out", str(out)]) == 0
+    line = report.write_report(str(runs), str(out))
+    assert line.endswith(f"-> {out}")
     text = (out / "report.md").read_text()
     for name in ("cem_rounds.png", "joint_trajectories.png", "rms_error.png", "pole_angles.png"):
         assert (out / name).stat().st_size > 5000

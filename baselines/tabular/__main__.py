@@ -15,11 +15,17 @@ Writes `<output_dir>/<algo>/<task or model>/<run_name>/` (docs/architecture.md#r
 
 from __future__ import annotations
 
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
 from absl import flags
 
-from baselines import cli, runs
+from baselines import runs
 from baselines.tabular import learners, models, runner
 from baselines.tabular.settings import ALGOS, DEFAULTS, POLE_REWARDS, TabularSettings
+from cpg_suite import cli
 
 # Flag help per setting: (absl definer, help). Defaults come from `TabularSettings`.
 _FLAGS = {
@@ -91,4 +97,4 @@ def main(argv: list[str]) -> None:
 
 if __name__ == "__main__":
     define_flags()
-    cli.run(main)
+    cli.run(main, output_dirs=("output_dir",))

@@ -13,8 +13,8 @@ import dataclasses
 import numpy as np
 
 import cpg_suite
-from baselines.cli import require
 from baselines.tabular import discretize, exploration, learners, models
+from cpg_suite.cli import require
 
 PLANNERS = ("value_iteration", "policy_iteration")
 ALGOS = PLANNERS + tuple(learners.LEARNERS)

@@ -1,0 +1,281 @@
+"""Command-line plumbing shared by every entry point (absl flags).
+
+Every command reports bad input the same way: one line `error: <what is wrong>` on stderr
+and exit code 2 — for flags absl cannot parse, for values our own checks reject, and for
+output paths that cannot be written, all before any work starts.
+
+A program chooses MuJoCo's rendering backend for itself before dm_control loads, in the
+first lines of its module (`import cpg_suite` does not load dm_control):
+
+    if __name__ == "__main__":
+        from cpg_suite import cli
+
+        cli.without_rendering()  # or cli.choose_renderer() in a program that renders
+
+Importing this module changes nothing; only those two calls set `MUJOCO_GL`, and only in
+the process that calls them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import subprocess
+import sys
+from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+from absl import flags
+
+_Settings = TypeVar("_Settings")
+
+
+class UsageError(Exception):
+    """A bad flag value or combination; reported as one line, exit code 2."""
+
+
+# dm_control's names for "no OpenGL backend" and the headless backends in the order tried.
+_NO_RENDERER = "disable"
+_HEADLESS_BACKENDS = ("egl", "osmesa")
+# Creates and frees a small OpenGL context: whether a backend works on this machine.
+_PROBE = "from dm_control._render import Renderer; Renderer(16, 16).free()"
+
+
+def without_rendering() -> None:
+    """Chooses no rendering backend for this process, unless `MUJOCO_GL` says otherwise.
+
+    For programs that never render: dm_control then tries no OpenGL backend when it loads,
+    so nothing prints GLFW's "DISPLAY is missing" warning. Call it before dm_control is
+    imported (first thing under `if __name__ == "__main__":`).
+    """
+    os.environ.setdefault("MUJOCO_GL", _NO_RENDERER)
+
+
+def choose_renderer() -> None:
+    """Chooses a rendering backend that works, for a program that renders.
+
+    With `MUJOCO_GL` set or a display (`DISPLAY`), dm_control's own choice stands.
+    Otherwise each headless backend (EGL, then OSMesa) is tried in a child process and
+    the first that creates an OpenGL context is set in `MUJOCO_GL`. Call it before
+    dm_control is imported.
+
+    Raises:
+      SystemExit: With one `error:` line and code 2 if no headless backend works.
+    """
+    if "MUJOCO_GL" in os.environ or os.environ.get("DISPLAY"):
+        return
+    for backend in _HEADLESS_BACKENDS:
+        probe = subprocess.run(
+            [sys.executable, "-c", _PROBE],
+            env={**os.environ, "MUJOCO_GL": backend},
+            capture_output=True,
+            timeout=120,
+        )
+        if probe.returncode == 0:
+            os.environ["MUJOCO_GL"] = backend
+            return
+    fail(
+        "no display and no headless OpenGL backend works here (tried MUJOCO_GL="
+        f"{', '.join(_HEADLESS_BACKENDS)}); install EGL (libegl1) or OSMesa (libosmesa6)"
+    )
+
+
+def check_output_dir(path: str, flag: str) -> None:
+    """Checks that a directory can be created (or written) at `path`, creating nothing.
+
+    Args:
+      path: The directory a command will write into.
+      flag: The flag that named it, for the message (e.g. `--output_dir`).
+
+    Raises:
+      UsageError: Naming the path and why it cannot be written.
+    """
+    if os.path.exists(path):
+        if not os.path.isdir(path):
+            raise UsageError(f"{flag}={path}: exists and is not a directory")
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise UsageError(f"{flag}={path}: directory is not writable")
+        return
+    _check_creatable(path, flag)
+
+
+def check_output_file(path: str, flag: str) -> None:
+    """Checks that a file can be written at `path`, creating nothing.
+
+    Args:
+      path: The file a command will write.
+      flag: The flag that named it, for the message (e.g. `--out`).
+
+    Raises:
+      UsageError: Naming the path and why it cannot be written.
+    """
+    if os.path.isdir(path):
+        raise UsageError(f"{flag}={path}: is a directory, expected a file")
+    if os.path.exists(path):
+        if not os.access(path, os.W_OK):
+            raise UsageError(f"{flag}={path}: file is not writable")
+        return
+    _check_creatable(os.path.dirname(path) or ".", flag, shown=path)
+
+
+def _check_creatable(path: str, flag: str, shown: str | None = None) -> None:
+    """Raises `UsageError` unless the nearest existing ancestor of `path` is a writable
+    directory (so that `os.makedirs(path)` can succeed)."""
+    shown = path if shown is None else shown
+    ancestor = os.path.abspath(path)
+    while not os.path.exists(ancestor):
+        ancestor = os.path.dirname(ancestor)
+    if not os.path.isdir(ancestor):
+        raise UsageError(f"{flag}={shown}: {_relative(ancestor)} is not a directory")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise UsageError(f"{flag}={shown}: directory {_relative(ancestor)} is not writable")
+
+
+def _relative(path: str) -> str:
+    relative = os.path.relpath(path)
+    return path if relative.startswith("..") else relative
+
+
+def fail(message: str) -> None:
+    """Prints `error: message` to stderr and exits with code 2."""
+    sys.stderr.write(f"error: {message}\n")
+    sys.stderr.flush()
+    raise SystemExit(2)
+
+
+def _parse_flags(argv: list[str]) -> list[str]:
+    try:
+        return flags.FLAGS(argv)
+    except flags.Error as e:
+        fail(str(e).splitlines()[0] if str(e) else "invalid flags")
+        raise  # unreachable
+
+
+def run(
+    main: Callable[[list[str]], None],
+    *,
+    output_dirs: Sequence[str] = (),
+    output_files: Sequence[str] = (),
+) -> None:
+    """`absl.app.run(main)` with one-line errors and exit code 2 for bad input.
+
+    The flags named in `output_dirs` and `output_files` are checked (`check_output_dir`,
+    `check_output_file`) after parsing and before `main` runs, so a path that cannot be
+    written stops the program before any work. `absl.app` defines flags of its own when
+    imported, so it is imported here, by the program that runs, not by the modules that
+    merely import this one.
+
+    Args:
+      main: The program; raises `UsageError` for bad input found while it runs.
+      output_dirs: Names of flags that give directories the program writes into.
+      output_files: Names of flags that give files the program writes.
+    """
+    from absl import app, logging
+
+    def wrapped(argv: list[str]) -> None:
+        if len(argv) > 1:
+            fail(f"unexpected arguments {argv[1:]}; all options are --flags")
+        if not flags.FLAGS["verbosity"].present:  # no INFO lines of libraries loaded in main
+            logging.set_verbosity(logging.WARNING)
+        try:
+            for name, check_path in [(n, check_output_dir) for n in output_dirs] + [
+                (n, check_output_file) for n in output_files
+            ]:
+                if flags.FLAGS[name].value:
+                    check_path(flags.FLAGS[name].value, f"--{name}")
+            main(argv)
+        except UsageError as e:
+            fail(str(e))
+
+    app.run(wrapped, flags_parser=_parse_flags)
+
+
+def check(condition: bool, message: str) -> None:
+    """Raises `UsageError(message)` unless `condition` holds."""
+    if not condition:
+        raise UsageError(message)
+
+
+def parse_seeds(text: str) -> list[int]:
+    """Parses `"0-9"`, `"3"`, or `"0,2,5"` into a list of seeds.
+
+    Raises:
+      UsageError: If the text is malformed or a range is empty.
+    """
+    seeds: list[int] = []
+    try:
+        for part in str(text).split(","):
+            part = part.strip()
+            if "-" in part:
+                lo, hi = (int(v) for v in part.split("-"))
+                if hi < lo:
+                    raise ValueError
+                seeds.extend(range(lo, hi + 1))
+            else:
+                seeds.append(int(part))
+    except ValueError:
+        raise UsageError(f"malformed seeds {text!r}; use N, A-B or a comma list") from None
+    if any(s < 0 for s in seeds):
+        raise UsageError(f"seeds must be ≥ 0, got {text!r}")
+    return seeds
+
+
+def settings_from_flags(cls: type[_Settings], **overrides) -> _Settings:
+    """Builds the settings dataclass `cls` from the absl flags named like its fields.
+
+    Each CLI is a thin layer: it defines flags named after the fields of its settings
+    dataclass, and this function collects them; the dataclass validates itself.
+
+    Args:
+      cls: A dataclass whose `__post_init__` raises `ValueError` on invalid values.
+      **overrides: Field values that replace the flags' (e.g. derived defaults).
+
+    Returns:
+      The validated settings.
+
+    Raises:
+      UsageError: With the dataclass's one-line reason.
+    """
+    values = {
+        field.name: flags.FLAGS[field.name].value
+        for field in dataclasses.fields(cls)
+        if field.name in flags.FLAGS
+    }
+    values.update(overrides)
+    try:
+        return cls(**values)
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+
+
+def require(condition: bool, message: str) -> None:
+    """Raises `ValueError(message)` unless `condition` holds (for settings validation)."""
+    if not condition:
+        raise ValueError(message)
+
+
+BACKENDS = ("local", "ray")  # where runs and trials execute (`baselines.ray_backend`)
+
+
+def require_backend(backend: str) -> None:
+    """Raises `ValueError` unless `backend` is one of `BACKENDS`."""
+    require(backend in BACKENDS, f"--backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
+
+
+def define_backend_flags() -> None:
+    """`--backend` and `--ray_address` (the settings fields `backend`, `ray_address`)."""
+    flags.DEFINE_enum("backend", "local", list(BACKENDS), "local threads, or Ray (same results).")
+    flags.DEFINE_string("ray_address", None, "Ray cluster: host:port of its head, or auto.")
+
+
+# What the optimizers tune and the scorer scores: the study's open-loop CPG amplitudes, or
+# the feedback CPG's parameters (`cpg_suite.feedback`).
+CONTROLLERS = ("open_loop", "feedback")
+
+
+def require_controller(controller: str) -> None:
+    """Raises `ValueError` unless `controller` is one of `CONTROLLERS`."""
+    require(
+        controller in CONTROLLERS,
+        f"--controller must be one of {', '.join(CONTROLLERS)}, got {controller!r}",
+    )

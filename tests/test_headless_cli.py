@@ -1,0 +1,116 @@
+"""On a headless machine with no rendering variables, every command speaks clean lines.
+
+A program that does not render chooses no OpenGL backend for itself (no GLFW warning); one
+that renders picks a headless backend that works, or says in one line that none does; an
+output path that cannot be written stops a command before any work, with one line.
+"""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from cpg_suite import cli
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# A new user's headless machine: no display, no rendering variables.
+HEADLESS = {
+    k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY", "PYOPENGL_PLATFORM")
+}
+
+# Every command that writes, with the flag that names where.
+WRITERS = [
+    ("baselines.cem", "--output_dir"),
+    ("baselines.cmaes", "--output_dir"),
+    ("baselines.ppo", "--output_dir"),
+    ("baselines.nac", "--output_dir"),
+    ("baselines.nac_experiments", "--output_dir"),
+    ("baselines.crawler_experiments", "--output_dir"),
+    ("baselines.pole_claims", "--output_dir"),
+    ("baselines.tabular", "--output_dir"),
+    ("baselines.score", "--out"),
+    ("baselines.calibrate_cpg", "--output"),
+    ("cpg_suite.explore", "--out"),
+]
+
+
+def _run(*args, env=None, cwd=None):
+    return subprocess.run(
+        [sys.executable, *args],
+        capture_output=True,
+        text=True,
+        env=HEADLESS if env is None else env,
+        cwd=cwd,
+        timeout=300,
+    )
+
+
+@pytest.mark.parametrize("module,flag", WRITERS)
+def test_output_under_a_regular_file_is_one_line_before_any_work(tmp_path, module, flag):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    out = _run("-m", module, f"{flag}={blocker}/x/y", cwd=tmp_path)
+    assert out.returncode == 2, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {flag}={blocker}/x/y: "), lines
+    assert "is not a directory" in lines[0]
+    assert sorted(os.listdir(tmp_path)) == ["a_file"]  # nothing written anywhere
+    assert out.stdout == ""
+
+
+def test_bad_flag_is_one_line_without_rendering_noise():
+    out = _run("-m", "baselines.cem", "--population=1")
+    assert out.returncode == 2
+    assert out.stderr.splitlines() == ["error: --population must be ≥ 2, got 1"]
+
+
+def test_importing_cpg_suite_loads_no_renderer():
+    code = "import sys, cpg_suite, cpg_suite.cli; print('dm_control' in sys.modules)"
+    assert _run("-c", code).stdout.strip() == "False"
+
+
+_BACKEND_AFTER = (
+    "import os; from cpg_suite import cli; cli.{call}(); print(os.environ['MUJOCO_GL'])"
+)
+
+
+def test_without_rendering_disables_unless_the_user_chose():
+    code = _BACKEND_AFTER.format(call="without_rendering")
+    assert _run("-c", code).stdout.strip() == "disable"
+    assert _run("-c", code, env={**HEADLESS, "MUJOCO_GL": "egl"}).stdout.strip() == "egl"
+
+
+def test_choose_renderer_picks_a_working_headless_backend():
+    out = _run("-c", _BACKEND_AFTER.format(call="choose_renderer"))
+    assert out.returncode == 0, out.stderr
+    backend = out.stdout.strip()
+    assert backend in ("egl", "osmesa")
+    probe = _run("-c", cli._PROBE, env={**HEADLESS, "MUJOCO_GL": backend})
+    assert probe.returncode == 0 and probe.stderr == ""
+
+
+def test_choose_renderer_says_in_one_line_when_none_works():
+    # Backends dm_control does not know fail their probe like a missing EGL or OSMesa.
+    code = (
+        "from cpg_suite import cli; cli._HEADLESS_BACKENDS = ('no_such_gl', 'nor_this');"
+        "cli.choose_renderer()"
+    )
+    out = _run("-c", code)
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: no display and no headless OpenGL")
+
+
+def test_output_checks_create_nothing(tmp_path):
+    cli.check_output_dir(str(tmp_path / "new" / "deeper"), "--output_dir")
+    cli.check_output_file(str(tmp_path / "new" / "out.csv"), "--out")
+    cli.check_output_dir(str(tmp_path), "--output_dir")
+    assert os.listdir(tmp_path) == []
+    (tmp_path / "f").write_text("")
+    with pytest.raises(cli.UsageError, match="exists and is not a directory"):
+        cli.check_output_dir(str(tmp_path / "f"), "--output_dir")
+    with pytest.raises(cli.UsageError, match="is a directory, expected a file"):
+        cli.check_output_file(str(tmp_path), "--out")
+    with pytest.raises(cli.UsageError, match="is not a directory"):
+        cli.check_output_file(str(tmp_path / "f" / "x.csv"), "--out")
