@@ -36,8 +36,8 @@ import numpy as np
 from absl import flags
 
 from analysis import published
-from baselines.stats import mean_std_ci95
 from cpg_suite import cli
+from cpg_suite.protocol.stats import mean_std_ci95
 
 _SEED = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
 # (method, task) -> [(metric key in summary.json, unit, higher is better)].
@@ -70,11 +70,13 @@ LEADERBOARD_FIELDS = [
 CLAIM_FIELDS = ["claim_id", "statement", "evidence", "holds"]
 
 
-PRESET_METHOD = "preset"  # an untrained open-loop gait's score card (`baselines.score --out`)
+PRESET_METHOD = (
+    "preset"  # an untrained open-loop gait's score card (`cpg_suite.protocol.score --out`)
+)
 
 
 def _add_score_card(dirpath: str, found: list[dict], skipped: list[str]) -> None:
-    """A `score.json` written by `baselines.score --out=DIR` becomes a leaderboard row named
+    """A `score.json` written by `cpg_suite.protocol.score --out=DIR` becomes a leaderboard row named
     after DIR, with no training task and no simulation budget."""
     path = os.path.join(dirpath, "score.json")
     try:

@@ -5,12 +5,12 @@ r"""Reproduce the study's experiments in one command, then the leaderboard, clai
 
 Runs, as separate processes, into `DIR/runs/`:
   1. value iteration on the Tokic model (thesis Tables A.2/A.3, CR-1);
-  2. the pole-balancing claims experiment (`baselines.pole_claims`);
-  3. the crawler experiments (`baselines.crawler_experiments`);
+  2. the pole-balancing claims experiment (`baselines.experiments.pole_claims`);
+  3. the crawler experiments (`baselines.experiments.crawler_experiments`);
   4. the CEM settings of thesis Table 6.3 (`baselines.cem --grid=table6_3`), 5 seeds for
      K = 50 in `--full`;
   5. CMA-ES at the K = 50 budget (`baselines.cmaes`);
-  6. the NAC finding and reward-hypothesis test (`baselines.nac_experiments`);
+  6. the NAC finding and reward-hypothesis test (`baselines.experiments.nac_experiments`);
 then `analysis.leaderboard` and `analysis.report` into `DIR/` (with the rendered gaits in
 `--full`, or with `--gaits`). Every step resumes
 finished runs, so an interrupted `--full` continues where it stopped when run again.
@@ -144,11 +144,20 @@ def experiment_steps(
         ),
         (
             "pole claims",
-            ["baselines.pole_claims", f"--output_dir={runs}/pole", "--resume", *backend],
+            [
+                "baselines.experiments.pole_claims",
+                f"--output_dir={runs}/pole",
+                "--resume",
+                *backend,
+            ],
         ),
         (
             "crawler experiments",
-            ["baselines.crawler_experiments", f"--output_dir={runs}/crawler", "--resume"],
+            [
+                "baselines.experiments.crawler_experiments",
+                f"--output_dir={runs}/crawler",
+                "--resume",
+            ],
         ),
         ("CEM, thesis Table 6.3", ["baselines.cem", "--grid=table6_3", *optimizer]),
     ]
@@ -160,7 +169,12 @@ def experiment_steps(
         steps[-1][1].extend(plan["cem_k50"])
     for extra in plan["cmaes"]:
         steps.append(("CMA-ES", ["baselines.cmaes", *optimizer, *extra]))
-    nac = ["baselines.nac_experiments", f"--output_dir={runs}/nac", "--resume", *backend]
+    nac = [
+        "baselines.experiments.nac_experiments",
+        f"--output_dir={runs}/nac",
+        "--resume",
+        *backend,
+    ]
     nac += plan["nac"]
     steps.append(("NAC", nac))
     return steps

@@ -38,8 +38,8 @@ from collections.abc import Callable
 import numpy as np
 from absl import flags
 
-from baselines import optimize, portable, progress, runs
-from cpg_suite import cli
+from cpg_suite import cli, portable, progress
+from cpg_suite.harness import optimize, runs
 
 # Thesis Table 6.3 (K, noise, elite), plus the variants of Sec. 6.3: the lateral penalty
 # and noise 0.2 / 1.0 (K 10, elite 2). Names are run-name prefixes.
@@ -100,7 +100,7 @@ class CEM:
     def ask(self) -> np.ndarray:
         """1. Sample: the mean, then K − 1 draws θ + L z from N(θ, Σ), Σ = L Lᵀ.
 
-        The factor L and the product L z use `baselines.portable`, not LAPACK/BLAS, so the
+        The factor L and the product L z use `cpg_suite.portable`, not LAPACK/BLAS, so the
         samples are the same bits on every CPU (see that module).
         """
         factor = portable.cholesky_psd(self.cov)

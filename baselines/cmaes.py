@@ -22,7 +22,7 @@ One generation g (n = 11 amplitudes, λ = population, μ = λ/2):
 Why not the `cma` package for the runs: its sampling and updates go through NumPy's BLAS and
 LAPACK (`dot`, `eigh`), whose OpenBLAS kernel is chosen per CPU, so the same seed gave
 different gaits on different machines. This implementation does its linear algebra with
-`baselines.portable` (element-wise operations in a fixed order, Jacobi eigendecomposition)
+`cpg_suite.portable` (element-wise operations in a fixed order, Jacobi eigendecomposition)
 and is bit-identical on any x86-64 CPU; `tests/test_cmaes.py` checks it against `cma` on
 benchmark functions.
 """
@@ -41,14 +41,14 @@ from collections.abc import Callable
 import numpy as np
 from absl import flags
 
-from baselines import optimize, portable, progress, runs
-from cpg_suite import cli
+from cpg_suite import cli, portable, progress
+from cpg_suite.harness import optimize, runs
 
 METHOD = "cmaes"  # its run directories' second level and its leaderboard rows
 
 
 class CMAES:
-    """The (μ/μ_w, λ)-CMA-ES behind the optimizer interface of `baselines.optimize`."""
+    """The (μ/μ_w, λ)-CMA-ES behind the optimizer interface of `cpg_suite.harness.optimize`."""
 
     def __init__(self, mean: np.ndarray, population: int, sigma0: float, seed: int):
         """Args:

@@ -58,8 +58,8 @@ import numpy as np
 from absl import flags
 
 import cpg_suite
-from baselines import progress, runs
-from cpg_suite import cli, cpg
+from cpg_suite import cli, cpg, progress
+from cpg_suite.harness import runs
 
 TASKS = ("darwin_balance", "darwin_walk")
 N_FEATURES = 15  # 1, 12 joint positions, 2 phases (thesis Sec. 5.4)

@@ -23,7 +23,7 @@ a row goes to progress.csv and `checkpoint.pkl` is written atomically (SB3 model
 optimizer, VecNormalize statistics, NumPy's and torch's generator states, the
 best-validation policy). Because a segment depends only on that state, `--resume`
 continues a killed run bit for bit. At the end the best-validation policy is scored on the
-test protocol (`baselines.score.score_policy`) and summary.json gets the "test" card and
+test protocol (`cpg_suite.protocol.score.score_policy`) and summary.json gets the "test" card and
 the simulation budget (training plus validation physics steps), which makes a leaderboard
 row (`analysis.leaderboard`).
 
@@ -56,8 +56,9 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 import cpg_suite
-from baselines import progress, protocol, runs, score
-from cpg_suite import cli, darwin, residual, vector
+from cpg_suite import cli, darwin, progress, protocol, residual, vector
+from cpg_suite.harness import runs
+from cpg_suite.protocol import score
 
 METHOD = "ppo"  # its run directories' second level and its leaderboard rows
 TASKS = protocol.TIERS
@@ -81,7 +82,7 @@ class PPOSettings:
     """The settings of a PPO run; all of them decide the result.
 
     Attributes:
-      task: The training tier (`baselines.protocol.TIERS`).
+      task: The training tier (`cpg_suite.protocol.TIERS`).
       action_space: "joints" (12 joint targets) or "cpg" (CPG modulation).
       total_steps: Training env steps (control steps summed over the sub-environments),
         rounded up to whole rollouts (`n_steps` × `num_envs`).
@@ -337,7 +338,7 @@ class FlatVecEnv(VecEnv):
 
 # The trained policy.
 class PPOPolicy:
-    """A trained policy for one environment (`baselines.score.score_policy`): a dm_env
+    """A trained policy for one environment (`cpg_suite.protocol.score.score_policy`): a dm_env
     observation → (12,) normalized joint targets, deterministic.
 
     Flattens the observation (`OBS_KEYS`, plus the CPG phase for the cpg action space),

@@ -6,7 +6,7 @@ Measures, in one process:
   1. the evaluator's physics steps per second vs a raw `mujoco.rollout` of the same model,
      initial states and controls with the same thread count (ratio; target ≥ 0.85), for
      1 and 2 threads;
-  2. its speedup over stepping the dm_control environment (`baselines.gait.evaluate_gait`)
+  2. its speedup over stepping the dm_control environment (`cpg_suite.evaluation.gait.evaluate_gait`)
      for the same candidates;
   3. a whole CEM run (default settings, `--cem_rounds` rounds): wall time vs its ideal,
      simulated steps / raw rollout rate (target ≤ 1.25).
@@ -32,10 +32,11 @@ import numpy as np
 from absl import flags
 from mujoco import rollout
 
-from baselines import cem, runs
-from baselines.batch_eval import BatchEvaluator
-from baselines.gait import evaluate_gait
+from baselines import cem
 from cpg_suite import cli, cpg
+from cpg_suite.evaluation.gait import evaluate_gait
+from cpg_suite.evaluation.open_loop import BatchEvaluator
+from cpg_suite.harness import runs
 
 
 def raw_rollout_rate(

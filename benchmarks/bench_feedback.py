@@ -22,9 +22,9 @@ import time
 import numpy as np
 from absl import flags
 
-from baselines.batch_eval import BatchEvaluator
-from baselines.feedback_eval import FeedbackEvaluator
 from cpg_suite import cli, cpg, feedback
+from cpg_suite.evaluation.closed_loop import FeedbackEvaluator
+from cpg_suite.evaluation.open_loop import BatchEvaluator
 
 _K, _STARTS, _TIER = 50, (11, 12), "darwin_walk_randomized"
 

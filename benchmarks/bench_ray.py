@@ -34,9 +34,9 @@ import time
 import numpy as np
 from absl import flags
 
-from baselines import protocol, ray_backend
-from baselines.batch_eval import BatchEvaluator
-from cpg_suite import cli, cpg
+from cpg_suite import cli, cpg, protocol
+from cpg_suite.evaluation import ray_backend
+from cpg_suite.evaluation.open_loop import BatchEvaluator
 
 _K, _STARTS, _STEPS = 50, 2, 1000
 _TIER = "darwin_walk_randomized"

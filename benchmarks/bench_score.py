@@ -2,7 +2,7 @@ r"""Time to score one gait on the test protocol (4 tiers × 50 trials of 16 s).
 
   python benchmarks/bench_score.py [--params=hand_tuned] [--threads=2]
 
-Prints the wall time of `baselines.score.score_gait` per tier and in all, the physics steps
+Prints the wall time of `cpg_suite.protocol.score.score_gait` per tier and in all, the physics steps
 simulated and their rate, and the rate of a raw `mujoco.rollout` of the nominal model with
 the same threads measured in the same run (their ratio is what the evaluator costs).
 """
@@ -22,9 +22,10 @@ import numpy as np
 from absl import flags
 from mujoco import rollout
 
-from baselines import gait, protocol, score
-from baselines.batch_eval import BatchEvaluator
-from cpg_suite import cli
+from cpg_suite import cli, protocol
+from cpg_suite.evaluation import gait
+from cpg_suite.evaluation.open_loop import BatchEvaluator
+from cpg_suite.protocol import score
 
 
 def raw_rate(amplitudes: np.ndarray, threads: int, trials: int = 20) -> float:
@@ -45,7 +46,7 @@ class BenchScoreSettings:
     """What the benchmark scores.
 
     Attributes:
-      params: A preset or a JSON file of the 11 amplitudes (`baselines.gait.parse_params`).
+      params: A preset or a JSON file of the 11 amplitudes (`cpg_suite.evaluation.gait.parse_params`).
       threads: Evaluator threads.
     """
 

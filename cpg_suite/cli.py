@@ -254,7 +254,7 @@ def require(condition: bool, message: str) -> None:
         raise ValueError(message)
 
 
-BACKENDS = ("local", "ray")  # where runs and trials execute (`baselines.ray_backend`)
+BACKENDS = ("local", "ray")  # where runs and trials execute (`cpg_suite.evaluation.ray_backend`)
 
 
 def require_backend(backend: str) -> None:

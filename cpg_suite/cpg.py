@@ -35,7 +35,7 @@ Decisions where the study is silent (docs/decisions.md#cpg):
 * **Integration**: exact exponential integration of the relaxation term over substeps of
   `substep` seconds with the primitives taken at each substep's midpoint.
 * ω, β, the offsets O (standing posture) and the ramp are `CPGConfig` fields; the defaults
-  are the result of `python -m baselines.calibrate_cpg` (see that module).
+  are the result of `python -m baselines.experiments.calibrate_cpg` (see that module).
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ masses, centres of mass and inertias (total 2.925 kg); box feet 0.105 × 0.066 m
   joint damping 0.43 N·m·s/rad, the slope of the MX-28 torque-speed line (2.5 N·m stall /
   5.76 rad/s no-load), i.e. the back-EMF braking of the motor; armature 0.005 kg·m² (a
   coreless rotor of about 1.3e-7 kg·m² reflected through the 193:1 gearbox). The sources
-  give no SI stiffness; kp was chosen with `python -m baselines.calibrate_cpg`.
+  give no SI stiffness; kp was chosen with `python -m baselines.experiments.calibrate_cpg`.
 * **Contacts**: soft-ish rubber soles (friction 1.0, solref 0.008 s); the feet collide with
   each other and with the floor, every other robot geom only with the floor.
 * **Timing**: physics step 2 ms (implicit-fast integrator), control step 16 ms (the Webots

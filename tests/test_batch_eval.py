@@ -6,9 +6,9 @@ See docs/architecture.md#the-batched-evaluator.
 import numpy as np
 import pytest
 
-from baselines.batch_eval import BatchEvaluator
-from baselines.gait import evaluate_gait
 from cpg_suite import cpg
+from cpg_suite.evaluation.gait import evaluate_gait
+from cpg_suite.evaluation.open_loop import BatchEvaluator
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +86,8 @@ def test_a_divergent_simulation_is_a_fall_in_both_evaluators():
 
 
 def test_nan_costs_are_failed_trials_never_the_best():
-    from baselines import cem, cmaes, optimize
+    from baselines import cem, cmaes
+    from cpg_suite.harness import optimize
 
     costs = np.array([np.nan, 3.0, -np.inf, 1.0, np.inf])
     assert optimize.best_index(costs) == 3

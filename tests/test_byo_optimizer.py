@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from analysis import leaderboard
-from baselines import optimize, runs
 from cpg_suite import cpg
+from cpg_suite.harness import optimize, runs
 
 cma = pytest.importorskip("cma")
 

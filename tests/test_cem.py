@@ -8,7 +8,8 @@ import sys
 import numpy as np
 import pytest
 
-from baselines import cem, optimize, runs
+from baselines import cem
+from cpg_suite.harness import optimize, runs
 
 
 def test_first_sample_is_the_mean():

@@ -12,13 +12,13 @@ import subprocess
 import sys
 
 _MODULES = (
-    "baselines.evaluate",
-    "baselines.calibrate_cpg",
+    "cpg_suite.evaluation.evaluate",
+    "baselines.experiments.calibrate_cpg",
     "cpg_suite.explore",
     "baselines.nac",
-    "baselines.nac_experiments",
+    "baselines.experiments.nac_experiments",
     "cpg_suite.render",
-    "baselines.gait",
+    "cpg_suite.evaluation.gait",
     "baselines.ppo",
     "cpg_suite.vector",
     "cpg_suite.residual",
@@ -54,8 +54,10 @@ def test_cli_modules_import_together_without_flags_or_environment_changes():
 def test_settings_are_checked_by_the_library():
     import pytest
 
-    from baselines import calibrate_cpg, evaluate, nac, nac_experiments
+    from baselines import nac
+    from baselines.experiments import calibrate_cpg, nac_experiments
     from cpg_suite import render
+    from cpg_suite.evaluation import evaluate
 
     for make, words in [
         (lambda: evaluate.EvaluateSettings(seeds="3-1"), "malformed seeds"),

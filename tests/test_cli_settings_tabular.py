@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from baselines import crawler_experiments, pole_claims
+from baselines.experiments import crawler_experiments, pole_claims
 from baselines.tabular import runner
 from baselines.tabular.settings import DEFAULTS, TabularSettings, default_epsilon
 
@@ -91,8 +91,8 @@ def test_experiment_settings_validate():
 def test_cli_modules_import_together_without_defining_flags():
     code = (
         "from absl import flags;"
-        "import baselines.tabular.__main__, baselines.pole_claims, "
-        "baselines.crawler_experiments;"
+        "import baselines.tabular.__main__, baselines.experiments.pole_claims, "
+        "baselines.experiments.crawler_experiments;"
         "ours = [m for m in flags.FLAGS.flags_by_module_dict() if 'baselines' in m];"
         "assert not ours, ours"
     )

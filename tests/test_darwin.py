@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import cpg_suite
-from baselines.gait import evaluate_gait
 from cpg_suite import cpg, darwin
+from cpg_suite.evaluation.gait import evaluate_gait
 
 
 @pytest.fixture(scope="module")

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from baselines import score
-from baselines.feedback_eval import FeedbackEvaluator, FeedbackPolicy
 from cpg_suite import cpg, feedback
+from cpg_suite.evaluation.closed_loop import FeedbackEvaluator, FeedbackPolicy
+from cpg_suite.protocol import score
 
 
 def _params(k=3):
@@ -50,7 +50,8 @@ def test_bad_parameters_are_refused():
 def test_cmaes_tunes_the_feedback_cpg_and_its_card_is_reproducible(tmp_path):
     import json
 
-    from baselines import cmaes, runs
+    from baselines import cmaes
+    from cpg_suite.harness import runs
 
     settings = cmaes.CMAESSettings(
         controller="feedback",
@@ -100,7 +101,7 @@ def test_score_cli_refuses_a_missing_feedback_params_file(tmp_path):
         [
             sys.executable,
             "-m",
-            "baselines.score",
+            "cpg_suite.protocol.score",
             "--controller=feedback",
             f"--params={tmp_path / 'none.json'}",
         ],

@@ -1,4 +1,4 @@
-"""`baselines.evaluate` and `cpg_suite.explore` from the command line."""
+"""`cpg_suite.evaluation.evaluate` and `cpg_suite.explore` from the command line."""
 
 import json
 import os
@@ -20,7 +20,11 @@ def test_evaluate_prints_a_json_line_per_seed_and_a_summary(tmp_path):
     gait = tmp_path / "gait.json"
     gait.write_text(json.dumps(dict(zip(cpg.AMPLITUDE_NAMES, cpg.PRESETS["hand_tuned"]))))
     out = run(
-        "baselines.evaluate", "--task=darwin_walk", f"--params={gait}", "--seeds=0-1", "--steps=150"
+        "cpg_suite.evaluation.evaluate",
+        "--task=darwin_walk",
+        f"--params={gait}",
+        "--seeds=0-1",
+        "--steps=150",
     )
     assert out.returncode == 0, out.stderr
     lines = [json.loads(line) for line in out.stdout.splitlines()]
@@ -30,10 +34,12 @@ def test_evaluate_prints_a_json_line_per_seed_and_a_summary(tmp_path):
     assert lines[2]["summary"] and lines[2]["n"] == 2
     # The file and the preset give the same numbers, and so does the fast evaluator
     # (its lines lack only the environment's "return").
-    preset = run("baselines.evaluate", "--params=hand_tuned", "--seeds=0-1", "--steps=150")
+    preset = run(
+        "cpg_suite.evaluation.evaluate", "--params=hand_tuned", "--seeds=0-1", "--steps=150"
+    )
     assert preset.stdout.splitlines()[:2] == out.stdout.splitlines()[:2]
     fast = run(
-        "baselines.evaluate",
+        "cpg_suite.evaluation.evaluate",
         "--params=hand_tuned",
         "--seeds=0-1",
         "--steps=150",
@@ -58,7 +64,7 @@ def test_evaluate_prints_a_json_line_per_seed_and_a_summary(tmp_path):
     ],
 )
 def test_evaluate_bad_input(args, words):
-    out = run("baselines.evaluate", *args)
+    out = run("cpg_suite.evaluation.evaluate", *args)
     assert out.returncode == 2
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and words in lines[0]
@@ -67,7 +73,7 @@ def test_evaluate_bad_input(args, words):
 def test_evaluate_bad_params_file(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"hip": 1.0}))
-    out = run("baselines.evaluate", f"--params={bad}")
+    out = run("cpg_suite.evaluation.evaluate", f"--params={bad}")
     assert out.returncode == 2 and "missing" in out.stderr
 
 

@@ -25,12 +25,12 @@ WRITERS = [
     ("baselines.cmaes", "--output_dir"),
     ("baselines.ppo", "--output_dir"),
     ("baselines.nac", "--output_dir"),
-    ("baselines.nac_experiments", "--output_dir"),
-    ("baselines.crawler_experiments", "--output_dir"),
-    ("baselines.pole_claims", "--output_dir"),
+    ("baselines.experiments.nac_experiments", "--output_dir"),
+    ("baselines.experiments.crawler_experiments", "--output_dir"),
+    ("baselines.experiments.pole_claims", "--output_dir"),
     ("baselines.tabular", "--output_dir"),
-    ("baselines.score", "--out"),
-    ("baselines.calibrate_cpg", "--output"),
+    ("cpg_suite.protocol.score", "--out"),
+    ("baselines.experiments.calibrate_cpg", "--output"),
     ("cpg_suite.explore", "--out"),
 ]
 

@@ -8,7 +8,8 @@ import sys
 import numpy as np
 import pytest
 
-from baselines import nac, nac_experiments
+from baselines import nac
+from baselines.experiments import nac_experiments
 from cpg_suite import cpg
 
 
@@ -174,7 +175,7 @@ def test_experiments_cli_bad_flags(tmp_path):
         [
             sys.executable,
             "-m",
-            "baselines.nac_experiments",
+            "baselines.experiments.nac_experiments",
             "--seeds=1",
             f"--output_dir={tmp_path}",
         ],

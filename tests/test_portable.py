@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from baselines import portable
+from cpg_suite import portable
 
 
 def test_matmul_and_sums_match_numpy():
@@ -51,7 +51,8 @@ def test_jacobi_eigendecomposition():
 
 _SHORT_RUNS = r"""
 import hashlib, json, sys
-from baselines import cem, cmaes, runs
+from baselines import cem, cmaes
+from cpg_suite.harness import runs
 from cpg_suite import cpg, darwin
 targets = cpg.trajectories(cpg.PRESETS["hand_tuned"], 1000, darwin.CONTROL_TIMESTEP)
 out = {"cpg_sha256": hashlib.sha256(targets.tobytes()).hexdigest()}

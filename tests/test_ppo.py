@@ -11,8 +11,10 @@ import pytest
 
 import cpg_suite
 from analysis import leaderboard, report
-from baselines import ppo, protocol, runs, score
-from cpg_suite import cpg, darwin, residual, vector
+from baselines import ppo
+from cpg_suite import cpg, darwin, protocol, residual, vector
+from cpg_suite.harness import runs
+from cpg_suite.protocol import score
 
 
 def _settings(**kw) -> ppo.PPOSettings:

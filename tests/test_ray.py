@@ -13,11 +13,15 @@ import time
 import numpy as np
 import pytest
 
-from baselines import cem, nac_experiments, ray_backend, runs, score
-from baselines.batch_eval import BatchEvaluator
+from baselines import cem
+from baselines.experiments import nac_experiments
 from baselines.tabular import runner
 from baselines.tabular.settings import TabularSettings
-from cpg_suite import cpg
+from cpg_suite import cpg, evaluation
+from cpg_suite.evaluation import ray_backend
+from cpg_suite.evaluation.open_loop import BatchEvaluator
+from cpg_suite.harness import runs
+from cpg_suite.protocol import score
 
 ray = pytest.importorskip("ray")
 
@@ -221,7 +225,7 @@ def test_unreachable_cluster_is_a_one_line_error_and_writes_nothing(tmp_path):
     with pytest.raises(ValueError, match="backend"):
         runs.RunOptions(backend="slurm")
     with pytest.raises(ValueError, match="valid: local, ray"):
-        ray_backend.open_evaluator("darwin_walk", 10, 1, backend="mpi")
+        evaluation.open_evaluator("darwin_walk", 10, 1, backend="mpi")
 
 
 class socket_port:

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from analysis import leaderboard
-from baselines import protocol, score
-from baselines.gait import evaluate_gait
-from cpg_suite import cpg
+from cpg_suite import cpg, protocol
+from cpg_suite.evaluation.gait import evaluate_gait
+from cpg_suite.protocol import score
 
 
 def test_seed_ranges_are_disjoint_and_training_refuses_the_others():
@@ -65,7 +65,7 @@ def test_card_is_the_same_for_one_and_two_threads():
 
 def _cli(*args):
     return subprocess.run(
-        [sys.executable, "-m", "baselines.score", *args],
+        [sys.executable, "-m", "cpg_suite.protocol.score", *args],
         capture_output=True,
         text=True,
         timeout=600,

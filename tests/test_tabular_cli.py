@@ -121,7 +121,13 @@ def test_bad_input_one_line_exit_2(tmp_path, args, words):
 )
 def test_pole_claims_bad_input(tmp_path, args, words):
     out = subprocess.run(
-        [sys.executable, "-m", "baselines.pole_claims", *args, f"--output_dir={tmp_path}"],
+        [
+            sys.executable,
+            "-m",
+            "baselines.experiments.pole_claims",
+            *args,
+            f"--output_dir={tmp_path}",
+        ],
         capture_output=True,
         text=True,
         timeout=120,

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import cpg_suite
-from baselines.batch_eval import BatchEvaluator
-from baselines.gait import evaluate_gait
 from cpg_suite import cpg, perturbations
+from cpg_suite.evaluation.gait import evaluate_gait
+from cpg_suite.evaluation.open_loop import BatchEvaluator
 
 TIERS = ("darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
 

@@ -22,10 +22,10 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
 from absl import flags
 
-from baselines import runs
 from baselines.tabular import learners, models, runner
 from baselines.tabular.settings import ALGOS, DEFAULTS, POLE_REWARDS, TabularSettings
 from cpg_suite import cli
+from cpg_suite.harness import runs
 
 # Flag help per setting: (absl definer, help). Defaults come from `TabularSettings`.
 _FLAGS = {

@@ -12,9 +12,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from baselines import progress
 from baselines.tabular.exploration import EpsilonSchedule
 from baselines.tabular.learners import Learner
+from cpg_suite import progress
 
 
 @dataclasses.dataclass

@@ -14,7 +14,6 @@ import time
 import numpy as np
 
 import cpg_suite
-from baselines import runs
 from baselines.tabular import discretize, exploration, learners, model_env, models, planning
 from baselines.tabular.online import OnlineResult, balance_metrics, run_online
 from baselines.tabular.settings import (  # noqa: F401  (re-exported: the runner's settings)
@@ -26,6 +25,7 @@ from baselines.tabular.settings import (  # noqa: F401  (re-exported: the runner
     default_epsilon,
 )
 from cpg_suite import crawler
+from cpg_suite.harness import runs
 
 
 def make_learner(
@@ -535,20 +535,17 @@ def execute_all(
     """
     if backend == "local":
         return [execute(s, resume=resume) for s in settings]
-    from baselines import ray_backend
+    from cpg_suite.evaluation import ray_backend
+    from cpg_suite.harness import ray_tasks
 
-    owns_ray = ray_backend.connect(ray_address)
-    try:
+    with ray_backend.connected("ray", ray_address):
         for s in settings:
             path = os.path.join(s.output_dir, s.algo, s.target, s.run_name_or_default())
             if os.path.isdir(path) and os.listdir(path) and not (resume or s.overwrite):
                 raise runs.RunDirectoryExists(
                     f"run directory {path} already exists; pass --overwrite to replace it"
                 )
-        return ray_backend.map_tasks(_execute_resumed, settings)
-    finally:
-        if owns_ray:
-            ray_backend.disconnect()
+        return ray_tasks.map_tasks(_execute_resumed, settings)
 
 
 def _execute_resumed(settings: TabularSettings) -> tuple[str, dict]:

@@ -1,6 +1,6 @@
 r"""The study's crawler experiments (thesis Sec. 4.1.7), one command.
 
-  python -m baselines.crawler_experiments --output_dir=runs/crawler --seeds=5
+  python -m baselines.experiments.crawler_experiments --output_dir=runs/crawler --seeds=5
 
 Writes run directories under `<output_dir>/<algo>/{tokic,crawler_walk}/...` and, beside
 them, `crawler_experiments.md` with one table per experiment:
@@ -35,10 +35,10 @@ import numpy as np
 import pandas as pd
 from absl import flags
 
-from baselines import progress, runs
 from baselines.tabular import models, planning, runner
 from baselines.tabular.settings import TabularSettings
-from cpg_suite import cli
+from cpg_suite import cli, progress
+from cpg_suite.harness import runs
 
 
 def define_flags() -> None:

@@ -1,6 +1,6 @@
 r"""The study's NAC finding (thesis Sec. 5.5, claims NAC-*) and the reward-hypothesis test.
 
-  python -m baselines.nac_experiments --output_dir=runs/nac --seeds=5 [--steps=20000]
+  python -m baselines.experiments.nac_experiments --output_dir=runs/nac --seeds=5 [--steps=20000]
 
 Three configurations of `baselines.nac`, `--seeds` seeds each:
   * `nofix`: no basis normalisation, no ridge (the study's first attempt: θ blew up);
@@ -26,9 +26,10 @@ import os
 import numpy as np
 from absl import flags
 
-from baselines import nac, progress, runs
-from baselines.stats import mean_std_ci95
-from cpg_suite import cli
+from baselines import nac
+from cpg_suite import cli, progress
+from cpg_suite.harness import runs
+from cpg_suite.protocol.stats import mean_std_ci95
 
 
 def define_flags() -> None:
@@ -63,7 +64,7 @@ BASE = {
 
 @dataclasses.dataclass(frozen=True)
 class NACExperimentSettings:
-    """The NAC experiments (the flags of `python -m baselines.nac_experiments`); validated.
+    """The NAC experiments (the flags of `python -m baselines.experiments.nac_experiments`); validated.
 
     Attributes:
       output_dir: Root of the output tree (runs under `nac/`, the table beside it).
@@ -140,22 +141,19 @@ def _run_on_ray(jobs: list[tuple[str, int]], settings: NACExperimentSettings) ->
     Raises:
       runs.RunDirectoryExists: As `run_one`.
     """
-    from baselines import ray_backend
+    from cpg_suite.evaluation import ray_backend
+    from cpg_suite.harness import ray_tasks
 
-    owns_ray = ray_backend.connect(settings.ray_address)
-    try:
+    with ray_backend.connected("ray", settings.ray_address):
         for name, seed in jobs:
             run = run_settings(name, seed, settings)
             path = os.path.join(run.output_dir, "nac", run.task, run.run_name)
             finished = os.path.exists(os.path.join(path, "summary.json"))
             if os.path.isdir(path) and os.listdir(path) and not (settings.resume and finished):
                 raise runs.RunDirectoryExists(f"run directory {path} already exists")
-        settings = ray_backend.importable_settings(settings)
-        task = ray_backend.importable(_run_task)
-        return ray_backend.map_tasks(task, [(n, s, settings) for n, s in jobs])
-    finally:
-        if owns_ray:
-            ray_backend.disconnect()
+        settings = ray_tasks.importable_settings(settings)
+        task = ray_tasks.importable(_run_task)
+        return ray_tasks.map_tasks(task, [(n, s, settings) for n, s in jobs])
 
 
 def _run_task(job: tuple[str, int, NACExperimentSettings]) -> dict:

@@ -1,6 +1,6 @@
 r"""The study's pole-balancing experiments (thesis Sec. 4.2.3) and the evidence per claim.
 
-  python -m baselines.pole_claims --output_dir=runs/pole_claims --seeds=5
+  python -m baselines.experiments.pole_claims --output_dir=runs/pole_claims --seeds=5
 
 Runs Q-learning on `pole_balance` for every setting the study varied — discretizations,
 2 vs 3 actions, γ, α, force, ε — with `--seeds` seeds each, one run directory per run
@@ -31,10 +31,10 @@ import numpy as np
 import pandas as pd
 from absl import flags
 
-from baselines import progress, runs
 from baselines.tabular import runner
 from baselines.tabular.settings import TabularSettings
-from cpg_suite import cli
+from cpg_suite import cli, progress
+from cpg_suite.harness import runs
 
 
 def define_flags() -> None:

@@ -1,6 +1,6 @@
 r"""Evaluate a CPG gait on a DARwIn-OP task by stepping the dm_control environment.
 
-  python -m baselines.evaluate --task=darwin_walk --params=hand_tuned --seeds=0-9
+  python -m cpg_suite.evaluation.evaluate --task=darwin_walk --params=hand_tuned --seeds=0-9
 
 `--params` takes a preset (`hand_tuned`, `table6_1`, `table6_2`: thesis Tables 6.1/6.2) or a
 JSON file holding the 11 amplitudes by name. Prints one JSON line per seed (`seed`,
@@ -23,9 +23,9 @@ from collections.abc import Iterator
 import numpy as np
 from absl import flags
 
-from baselines.batch_eval import BatchEvaluator
-from baselines.gait import DARWIN_TASKS, evaluate_gait, parse_params, summarize
 from cpg_suite import cli, cpg
+from cpg_suite.evaluation.gait import DARWIN_TASKS, evaluate_gait, parse_params, summarize
+from cpg_suite.evaluation.open_loop import BatchEvaluator
 
 
 def define_flags() -> None:
@@ -42,10 +42,10 @@ def define_flags() -> None:
 
 @dataclasses.dataclass(frozen=True)
 class EvaluateSettings:
-    """Which gait to evaluate, where and how (the flags of `python -m baselines.evaluate`).
+    """Which gait to evaluate, where and how (the flags of `python -m cpg_suite.evaluation.evaluate`).
 
     Attributes:
-      task: One of `baselines.gait.DARWIN_TASKS`.
+      task: One of `cpg_suite.evaluation.gait.DARWIN_TASKS`.
       params: A preset (`cpg.PRESETS`) or a JSON file of the 11 amplitudes.
       seeds: Initial-state seeds: `N`, `A-B` or a comma list.
       steps: Control steps per trial.

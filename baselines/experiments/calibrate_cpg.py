@@ -1,6 +1,6 @@
 r"""Sweep of the CPG and servo constants the study does not give (docs/decisions.md#cpg).
 
-  python -m baselines.calibrate_cpg --output=runs/calibration.csv
+  python -m baselines.experiments.calibrate_cpg --output=runs/calibration.csv
 
 For every combination of stride period (ω = 2π / period), relaxation β, standing knee
 crouch and servo gain kp, runs the thesis gaits (`--params`, default the hand-tuned
@@ -31,9 +31,8 @@ from collections.abc import Callable
 import pandas as pd
 from absl import flags
 
-from baselines import progress
-from baselines.gait import evaluate_gait
-from cpg_suite import cli, cpg
+from cpg_suite import cli, cpg, progress
+from cpg_suite.evaluation.gait import evaluate_gait
 
 
 def define_flags() -> None:
@@ -77,7 +76,7 @@ def _floats(text: str, name: str) -> list[float]:
 
 @dataclasses.dataclass(frozen=True)
 class CalibrationSettings:
-    """The sweep (the flags of `python -m baselines.calibrate_cpg`); validated.
+    """The sweep (the flags of `python -m baselines.experiments.calibrate_cpg`); validated.
 
     Attributes:
       output: CSV of trials (appended to with `resume`).

@@ -28,9 +28,11 @@ from typing import Protocol
 import numpy as np
 from absl import flags
 
-from baselines import progress, protocol, ray_backend, runs, score
-from baselines.batch_eval import BatchEvaluator, BatchResult
-from cpg_suite import cli, cpg, feedback
+from cpg_suite import cli, cpg, evaluation, feedback, progress, protocol
+from cpg_suite.evaluation import ray_backend
+from cpg_suite.evaluation.open_loop import BatchEvaluator, BatchResult
+from cpg_suite.harness import ray_tasks, runs
+from cpg_suite.protocol import score
 
 TASKS = protocol.TIERS  # Optimizers may train on any tier.
 
@@ -550,12 +552,8 @@ def run_optimizer(
     if not options.run_name:
         raise ValueError("run_optimizer needs options.run_name")
     # Reach the cluster before anything is written (ClusterUnreachable leaves no run files).
-    owns_ray = options.backend == "ray" and ray_backend.connect(options.ray_address)
-    try:
+    with ray_backend.connected(options.backend, options.ray_address):
         return _run_in_directory(method, optimizer, settings, options, log)
-    finally:
-        if owns_ray:
-            ray_backend.disconnect()
 
 
 def _open_run_directory(method: str, settings, options: runs.RunOptions) -> str:
@@ -585,7 +583,7 @@ def _run_in_directory(method, optimizer, settings, options, log) -> tuple[str, d
         builtin = method in ("cem", "cmaes")  # a user's optimizer runs from their own code
         command = runs.command_line(f"baselines.{method}", flags_of_run) if builtin else None
         runs.write_config(run_dir, settings, command)
-    with ray_backend.open_evaluator(
+    with evaluation.open_evaluator(
         settings.task,
         settings.trial_steps,
         options.threads,
@@ -735,8 +733,6 @@ def run_jobs(
       ray_backend.ClusterUnreachable: If the jobs run on Ray and no cluster answers.
     """
     start = time.perf_counter()
-    feedback_on_ray = any(s.controller == "feedback" and o.backend != "local" for s, o in jobs)
-    cli.check(not feedback_on_ray, "--controller=feedback runs with --backend=local only")
     if len(jobs) > 1 and jobs[0][1].backend == "ray":
         done = _run_jobs_on_ray(jobs, run, method, log)
     else:
@@ -777,24 +773,19 @@ def _run_jobs_on_ray(jobs, run, method, log) -> list[tuple[str, dict]]:
     run's checkpoint (`resume=True` in the tasks)."""
     if method is None:
         raise ValueError("run_jobs needs the method's name to run jobs on Ray")
-    address = jobs[0][1].ray_address
-    owns_ray = ray_backend.connect(address)
-    try:
+    with ray_backend.connected("ray", jobs[0][1].ray_address):
         tasks = []
         for settings, options in jobs:
             with _usage_errors():
                 _open_run_directory(method, settings, options)
             local = dataclasses.replace(options, backend="local", resume=True, overwrite=False)
-            settings = ray_backend.importable_settings(settings)
-            tasks.append((ray_backend.importable(run), settings, local))
+            settings = ray_tasks.importable_settings(settings)
+            tasks.append((ray_tasks.importable(run), settings, local))
 
         def finished(i, result):
             log(f"[{i + 1}/{len(jobs)} {jobs[i][1].run_name}] " + summary_line(*result))
 
         with _usage_errors():
-            return ray_backend.map_tasks(
+            return ray_tasks.map_tasks(
                 _run_job, tasks, num_cpus=jobs[0][1].threads, on_result=finished
             )
-    finally:
-        if owns_ray:
-            ray_backend.disconnect()

@@ -1,13 +1,13 @@
 r"""The benchmark's score card: what a gait or a policy does on the held-out test tiers.
 
-  python -m baselines.score --params=hand_tuned
-  python -m baselines.score --params=runs/cmaes/darwin_walk/K50_s1_seed0/best_params.json --out=DIR
+  python -m cpg_suite.protocol.score --params=hand_tuned
+  python -m cpg_suite.protocol.score --params=runs/cmaes/darwin_walk/K50_s1_seed0/best_params.json --out=DIR
 
-Per tier (`baselines.protocol.TIERS`), over the 50 test seeds: success-weighted distance (a
+Per tier (`cpg_suite.protocol.TIERS`), over the 50 test seeds: success-weighted distance (a
 fallen trial scores 0; the score that ranks methods), fall rate, the distance's mean, median
 and interquartile mean, 95 % bootstrap intervals (`scipy.stats.bootstrap`, percentile, a
 fixed generator so a card is reproducible) and a Wilson interval for the fall rate, and the
-gait-quality medians of `baselines.quality`. "all" pools the tiers' trials (equal weight).
+gait-quality medians of `cpg_suite.evaluation.quality`. "all" pools the tiers' trials (equal weight).
 
 Open-loop gaits run on the batched `mujoco.rollout` evaluator; a policy (any callable from
 a dm_env observation to a 12-vector action in [−1, 1]) runs step by step. Both give the
@@ -32,10 +32,11 @@ from absl import flags
 from scipy import stats
 
 import cpg_suite
-from baselines import gait, progress, protocol, ray_backend, runs
-from baselines import quality as gait_quality
-from cpg_suite import cli, cpg, feedback
+from cpg_suite import cli, cpg, evaluation, feedback, progress, protocol
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
+from cpg_suite.evaluation import gait, ray_backend
+from cpg_suite.evaluation import quality as gait_quality
+from cpg_suite.harness import runs
 
 _BOOTSTRAP_RESAMPLES = 2000
 _BOOTSTRAP_SEED = 0
@@ -106,7 +107,7 @@ def summarize(distance: np.ndarray, fell: np.ndarray, quality: dict) -> dict:
     Args:
       distance: (n,) forward distances, m.
       fell: (n,) fall flags.
-      quality: (n,) arrays of `baselines.quality.FIELDS`.
+      quality: (n,) arrays of `cpg_suite.evaluation.quality.FIELDS`.
 
     Returns:
       `success_weighted_distance_m`, `fall_rate`, `distance_m` (mean, median, iqm) with
@@ -173,19 +174,15 @@ def score_gait(amplitudes: np.ndarray, settings: ScoreSettings | None = None) ->
       ray_backend.ClusterUnreachable: With backend "ray", if no cluster answers.
     """
     settings = settings or ScoreSettings()
-    owns_ray = settings.backend == "ray" and ray_backend.connect(settings.ray_address)
-    try:
+    with ray_backend.connected(settings.backend, settings.ray_address):
         return _score_tiers(amplitudes, settings)
-    finally:
-        if owns_ray:
-            ray_backend.disconnect()
 
 
 def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> dict:
     seeds = protocol.held_out_seeds(settings.seeds)
     per_tier, sim_steps = {}, 0
     for tier in progress.track(settings.tiers, desc="tiers", unit="tier"):
-        with ray_backend.open_evaluator(
+        with evaluation.open_evaluator(
             tier,
             settings.steps,
             settings.threads,
@@ -216,7 +213,7 @@ def policy_trial(
 
     Args:
       policy: Maps the task's observation (an ordered dict of arrays) to a (12,) action.
-      tier: A task id of `baselines.protocol.TIERS`.
+      tier: A task id of `cpg_suite.protocol.TIERS`.
       seed: The episode's seed.
       steps: Control steps.
 

@@ -1,9 +1,9 @@
 """Trials and runs on a Ray cluster (docs/architecture.md#ray-backend).
 
-`RayEvaluator` has the interface of `baselines.batch_eval.BatchEvaluator` (`evaluate`,
-`close`, a context manager). A run's evaluators share one set of Ray actors, one CPU and
-one evaluator thread each; an actor builds a `BatchEvaluator` from the task name and the
-CPG settings the first time it is asked for that task (what is shipped: a few hundred
+`RayEvaluator` has the evaluator interface (`cpg_suite.evaluation.Evaluator`) around either
+local evaluator, open-loop or feedback. A run's evaluators share one set of Ray actors, one CPU and
+one evaluator thread each; an actor builds a local evaluator from the controller, the task
+name and the CPG settings the first time it is asked for that task (what is shipped: a few hundred
 bytes of arguments, put into Ray's object store once per evaluator, never a model), so a
 round only sends the amplitudes and the seeds. A round's trials are split into chunks (of
 candidates, or of seeds when one gait is scored), one actor call per chunk, and the
@@ -18,29 +18,28 @@ evaluator is made.
 
 from __future__ import annotations
 
-import dataclasses
+import contextlib
 import hashlib
-import importlib
 import math
 import os
 import pickle
 import socket
-import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Iterator
 
 import numpy as np
 
-from baselines.batch_eval import BatchEvaluator, BatchResult, check_amplitudes
-from cpg_suite.cli import BACKENDS, CONTROLLERS, UsageError
-
-_TASK_RETRIES = 3  # runs of a grid run again if their worker process dies
+from cpg_suite import feedback
+from cpg_suite.cli import UsageError
+from cpg_suite.evaluation.closed_loop import FeedbackEvaluator
+from cpg_suite.evaluation.open_loop import BatchEvaluator, BatchResult, check_amplitudes
 
 
 class ClusterUnreachable(UsageError, ConnectionError):
     """No Ray cluster answers at the address given (a usage error: one line, exit 2)."""
 
 
-def _ray():
+def ray_module():
+    """The `ray` package, or an ImportError that says how to install it."""
     try:
         import ray
     except ImportError as e:  # pragma: no cover - depends on the installation
@@ -62,7 +61,7 @@ def connect(address: str | None, num_cpus: int | None = None) -> bool:
     Raises:
       ClusterUnreachable: If no cluster answers at `address`.
     """
-    ray = _ray()
+    ray = ray_module()
     if ray.is_initialized():
         return False
     if address and address != "auto":
@@ -87,10 +86,49 @@ def connect(address: str | None, num_cpus: int | None = None) -> bool:
     return True
 
 
+@contextlib.contextmanager
+def connected(backend: str, address: str | None) -> Iterator[None]:
+    """Within the block this process is connected to Ray when `backend` is "ray" (and
+    leaves it after, if the block's connection was the first).
+
+    Raises:
+      ClusterUnreachable: If no cluster answers at `address`.
+    """
+    owns = backend == "ray" and connect(address)
+    try:
+        yield
+    finally:
+        if owns:
+            disconnect()
+
+
+def release_actors() -> None:
+    """Ends this driver's idle evaluator actors (they would hold CPUs that tasks need)."""
+    ray = ray_module()
+    for actor in _POOLS.pop(ray.get_runtime_context().get_job_id(), []):
+        ray.kill(actor)
+
+
 def disconnect() -> None:
     """Ends this driver's actors and leaves Ray (shuts a private local instance down)."""
     _POOLS.clear()
-    _ray().shutdown()
+    ray_module().shutdown()
+
+
+def _local_evaluator(controller: str, *args, **kwargs):
+    """The local batched evaluator of `controller` (open-loop amplitudes or feedback)."""
+    if controller == "feedback":
+        return FeedbackEvaluator(*args, **kwargs)
+    return BatchEvaluator(*args, **kwargs)
+
+
+def _check_params(controller: str, params) -> np.ndarray:
+    """(K, n) float64 parameter vectors of `controller`, checked as its evaluator does."""
+    if controller == "feedback":
+        p = np.atleast_2d(np.asarray(params, dtype=np.float64))
+        feedback.split(p)  # raises ValueError on a wrong shape
+        return p
+    return check_amplitudes(params)
 
 
 class _Worker:
@@ -98,15 +136,15 @@ class _Worker:
     on the first call that needs it and kept for the actor's life."""
 
     def __init__(self):
-        self._evaluators: dict[str, BatchEvaluator] = {}
+        self._evaluators: dict = {}
 
     def pid(self) -> int:
         return os.getpid()
 
     def evaluate(self, key: str, spec: tuple, amplitudes, seeds: list, quality: bool):
         if key not in self._evaluators:
-            args, kwargs = spec
-            self._evaluators[key] = BatchEvaluator(*args, **kwargs)
+            controller, args, kwargs = spec
+            self._evaluators[key] = _local_evaluator(controller, *args, **kwargs)
         return self._evaluators[key].evaluate(amplitudes, seeds, quality)
 
 
@@ -125,20 +163,23 @@ def _actors(ray, workers: int) -> list:
 
 
 class RayEvaluator:
-    """`BatchEvaluator.evaluate` with the candidates spread over Ray actors."""
+    """A local evaluator's `evaluate` (open-loop or feedback) with the trials spread over
+    Ray actors."""
 
     def __init__(
         self,
         task: str = "darwin_walk",
         steps: int = 1000,
         *,
+        controller: str = "open_loop",
         workers: int | None = None,
         chunk: int | None = None,
         address: str | None = None,
         **evaluator_kwargs,
     ):
         """Args:
-          task, steps, evaluator_kwargs: As for `BatchEvaluator`.
+          task, steps, evaluator_kwargs: As for the local evaluator.
+          controller: "open_loop" (`BatchEvaluator`) or "feedback" (`FeedbackEvaluator`).
           workers: Actors, each a one-thread evaluator on one CPU (None: one per CPU of the
             cluster; actors beyond its CPUs wait for one to be free).
           chunk: Candidates per actor call (None: a round split evenly over the actors).
@@ -150,12 +191,13 @@ class RayEvaluator:
         """
         if (workers is not None and workers < 1) or (chunk is not None and chunk < 1):
             raise ValueError(f"workers and chunk must be ≥ 1, got {workers} and {chunk}")
-        BatchEvaluator(task, steps, 1, **evaluator_kwargs).close()  # validates the arguments
-        ray = self._ray = _ray()
+        _local_evaluator(controller, task, steps, 1, **evaluator_kwargs).close()  # validates
+        self._controller = controller
+        ray = self._ray = ray_module()
         self._owns_ray = connect(address)
         if workers is None:
             workers = max(1, int(ray.cluster_resources().get("CPU", 1)))
-        spec = ((task, steps, 1), evaluator_kwargs)
+        spec = (controller, (task, steps, 1), evaluator_kwargs)
         self._key = hashlib.sha256(pickle.dumps(spec)).hexdigest()
         self._spec = ray.put(spec)  # to the object store once; each actor reads it once
         self.actors = _actors(ray, workers)
@@ -165,7 +207,7 @@ class RayEvaluator:
         """As `BatchEvaluator.evaluate`. The trials are split along the longer of the two
         axes (candidates, or seeds when there are fewer candidates than seeds, as when one
         gait is scored), `chunk` at a time, and the chunks go to the actors in turn."""
-        amps = check_amplitudes(amplitudes)
+        amps = _check_params(self._controller, amplitudes)
         seeds = [int(s) for s in np.atleast_1d(seeds)]
         axis = 0 if len(amps) >= len(seeds) else 1
         n = (len(amps), len(seeds))[axis]
@@ -192,75 +234,6 @@ class RayEvaluator:
         self.close()
 
 
-def importable(obj):
-    """The module-level function or class `obj` as imported from its module, so that Ray
-    pickles it by reference: under `python -m baselines.x` the CLI's own definitions live
-    in `__main__`, which a worker cannot import."""
-    if obj.__module__ != "__main__":
-        return obj
-    module = importlib.import_module(sys.modules["__main__"].__spec__.name)
-    return getattr(module, obj.__qualname__)
-
-
-def importable_settings(settings):
-    """A settings dataclass rebuilt as an instance of its `importable` class."""
-    return importable(type(settings))(**dataclasses.asdict(settings))
-
-
-def map_tasks(
-    fn: Callable,
-    items: Sequence,
-    *,
-    address: str | None = None,
-    num_cpus: int = 1,
-    on_result: Callable[[int, object], None] | None = None,
-) -> list:
-    """`[fn(item) for item in items]`, each call a Ray task (a run of a grid or a sweep).
-
-    A task whose process dies is run again (`max_retries`), so `fn` must be safe to
-    repeat: the runs given here resume or redo their own run directory. `fn` and the items
-    are pickled to the workers (every node needs the package installed; run files go where
-    `fn` writes them, so a multi-node cluster needs a shared file system for them).
-
-    Args:
-      fn: A module-level function (pickled by reference).
-      items: Its arguments, one per task.
-      address: Ray address (see `connect`).
-      num_cpus: CPUs each task reserves (its evaluator threads).
-      on_result: Called with (index, result) as each task finishes.
-
-    Returns:
-      The results in the order of `items`.
-
-    Raises:
-      ClusterUnreachable: If no cluster answers at `address`.
-      Exception: The first exception a task raised (Ray's error is an instance of it).
-    """
-    ray = _ray()
-    owns = connect(address)
-    try:
-        for actor in _POOLS.pop(ray.get_runtime_context().get_job_id(), []):
-            ray.kill(actor)  # idle evaluator actors would hold the CPUs the tasks need
-        task = ray.remote(num_cpus=num_cpus, max_retries=_TASK_RETRIES)(fn)
-        pending = {task.remote(item): i for i, item in enumerate(items)}
-        results: list = [None] * len(items)
-        try:
-            while pending:
-                (ref,), _ = ray.wait(list(pending), num_returns=1)
-                i = pending.pop(ref)
-                results[i] = ray.get(ref)
-                if on_result:
-                    on_result(i, results[i])
-        except BaseException:
-            for ref in pending:  # a failed run (or Ctrl-C) stops the grid
-                ray.cancel(ref)
-            raise
-        return results
-    finally:
-        if owns:
-            disconnect()
-
-
 def concatenate(parts: list[BatchResult], axis: int = 0) -> BatchResult:
     """The results of consecutive chunks of candidates (axis 0) or seeds (axis 1) as one."""
 
@@ -277,36 +250,3 @@ def concatenate(parts: list[BatchResult], axis: int = 0) -> BatchResult:
         int(sum(p.sim_steps for p in parts)),
         quality,
     )
-
-
-def open_evaluator(
-    task: str,
-    steps: int,
-    threads: int,
-    backend: str = "local",
-    ray_address: str | None = None,
-    controller: str = "open_loop",
-    **evaluator_kwargs,
-):
-    """The evaluator of `controller` ("open_loop" amplitudes or "feedback" parameters) on
-    `backend` (one of `BACKENDS`): a local `BatchEvaluator`, a `RayEvaluator`, or a local
-    `baselines.feedback_eval.FeedbackEvaluator`.
-
-    Raises:
-      ValueError: On an unknown backend or controller, or the feedback controller on Ray
-        (not available yet), and as the evaluators do.
-      ClusterUnreachable: For the Ray backend, if no cluster answers.
-    """
-    if controller not in CONTROLLERS:
-        raise ValueError(f"unknown controller {controller!r}; valid: {', '.join(CONTROLLERS)}")
-    if controller == "feedback":
-        if backend != "local":
-            raise ValueError("--controller=feedback runs on the local backend only")
-        from baselines.feedback_eval import FeedbackEvaluator
-
-        return FeedbackEvaluator(task, steps, threads, **evaluator_kwargs)
-    if backend == "local":
-        return BatchEvaluator(task, steps, threads, **evaluator_kwargs)
-    if backend == "ray":  # one single-thread actor per CPU: `threads` is the local backend's
-        return RayEvaluator(task, steps, address=ray_address, **evaluator_kwargs)
-    raise ValueError(f"unknown backend {backend!r}; valid: {', '.join(BACKENDS)}")

@@ -5,7 +5,7 @@ controls do not apply. `FeedbackEvaluator` steps K candidates × S starts togeth
 control step, the trials' physics steps run in threads (`mujoco.mj_step` in C, the GIL
 released), then one `FeedbackCPG` holding all K·S trials computes the next targets from
 their sensors, vectorized in NumPy. Each trial steps exactly as `control.Environment`
-does (`baselines.score.policy_trial`): the action, any push, the physics substeps,
+does (`cpg_suite.protocol.score.policy_trial`): the action, any push, the physics substeps,
 `mj_step1` for the observation, the fall test. So a trial's distance, fall step and gait
 quality equal those of stepping the environment with `FeedbackPolicy`, bit for bit
 (`tests/test_feedback_eval.py`); a trial depends only on its parameters and its seed, not
@@ -20,15 +20,15 @@ import mujoco
 import numpy as np
 
 import cpg_suite
-from baselines import quality as gait_quality
-from baselines.batch_eval import (
+from cpg_suite import cpg, darwin, feedback
+from cpg_suite.base import clear_invalid_state_warnings, invalid_state
+from cpg_suite.evaluation import quality as gait_quality
+from cpg_suite.evaluation.open_loop import (
     RECORDED_SENSORS,
     BatchEvaluator,
     BatchResult,
     Episode,
 )
-from cpg_suite import cpg, darwin, feedback
-from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 
 _FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -86,7 +86,7 @@ class FeedbackEvaluator:
         config: cpg.CPGConfig | None = None,
     ):
         """Args:
-          task: A walking tier (`baselines.batch_eval.TASKS`).
+          task: A walking tier (`cpg_suite.evaluation.open_loop.TASKS`).
           steps: Control steps per trial.
           threads: Threads stepping the physics (results do not depend on it).
           config: CPG constants; the task starts in the CPG's standing posture.
@@ -126,7 +126,7 @@ class FeedbackEvaluator:
         Args:
           params: (K, `feedback.N_PARAMS`) or (`feedback.N_PARAMS`,).
           seeds: Initial-state seeds.
-          quality: Also measure gait quality (`baselines.quality.FIELDS`).
+          quality: Also measure gait quality (`cpg_suite.evaluation.quality.FIELDS`).
 
         Returns:
           A `BatchResult` with (K, len(seeds)) arrays.

@@ -3,7 +3,7 @@
 The CPG is open-loop: for fixed amplitudes the joint targets are a function of time only.
 So evaluating K amplitude vectors is K independent rollouts of precomputed controls, run
 in C without Python in the loop. This evaluator gives the same distances and fall verdicts
-as stepping the dm_control environment (`baselines.gait.evaluate_gait`), bit for bit:
+as stepping the dm_control environment (`cpg_suite.evaluation.gait.evaluate_gait`), bit for bit:
 
 * the initial state is the task's own reset state for the seed (`mj_getState`);
 * the controls are exactly those the task sets for the same actions, held for the
@@ -32,10 +32,10 @@ import numpy as np
 from mujoco import rollout
 
 import cpg_suite
-from baselines import quality as gait_quality
-from baselines.gait import DARWIN_TASKS
 from cpg_suite import cpg, darwin
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
+from cpg_suite.evaluation import quality as gait_quality
+from cpg_suite.evaluation.gait import DARWIN_TASKS
 
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 _CTRL = int(mujoco.mjtState.mjSTATE_CTRL)
@@ -67,7 +67,7 @@ class BatchResult:
     lateral_m: np.ndarray  # (K, S) torso y displacement
     fall_step: np.ndarray  # (K, S) 1-based control step of the fall, 0 = no fall
     sim_steps: int  # physics steps simulated
-    quality: dict | None = None  # (K, S) arrays of `baselines.quality.FIELDS`, if asked
+    quality: dict | None = None  # (K, S) arrays of `cpg_suite.evaluation.quality.FIELDS`, if asked
 
     @property
     def fell(self) -> np.ndarray:
@@ -308,7 +308,7 @@ class BatchEvaluator:
         Args:
           amplitudes: (K, 11) or (11,) amplitudes, degrees.
           seeds: Initial-state seeds, the same for every candidate.
-          quality: Also measure gait quality (`baselines.quality`).
+          quality: Also measure gait quality (`cpg_suite.evaluation.quality`).
 
         Returns:
           A `BatchResult` with (K, len(seeds)) arrays.

@@ -1,0 +1,1 @@
+"""The study's experiments (not contestants): pole and crawler claims, NAC, calibration."""

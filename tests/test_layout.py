@@ -1,0 +1,143 @@
+"""The layout holds: the benchmark (`cpg_suite`) imports no contestant, no contestant imports
+another, `analysis` imports no simulation code, and no module imports itself in a circle.
+
+Every import counts, the ones inside functions too: a cycle through a deferred import is
+still a cycle in what depends on what.
+"""
+
+import ast
+import os
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PACKAGES = ("cpg_suite", "baselines", "analysis")
+# The contestants: one module or package per method.
+METHODS = (
+    "baselines.cem",
+    "baselines.cmaes",
+    "baselines.ppo",
+    "baselines.nac",
+    "baselines.tabular",
+)
+# What `analysis` may import of the benchmark: command-line plumbing and statistics.
+ANALYSIS_MAY_IMPORT = ("cpg_suite.cli", "cpg_suite.protocol.stats")
+SIMULATION = ("mujoco", "dm_control", "dm_env", "gymnasium", "torch", "ray")
+
+
+def _modules() -> dict[str, str]:
+    found = {}
+    for package in PACKAGES:
+        for dirpath, _, names in os.walk(os.path.join(ROOT, package)):
+            for name in names:
+                if name.endswith(".py"):
+                    rel = os.path.relpath(os.path.join(dirpath, name), ROOT)[:-3]
+                    module = rel.replace(os.sep, ".").removesuffix(".__init__")
+                    found[module] = os.path.join(dirpath, name)
+    return found
+
+
+def _imports(module: str, path: str, known: dict) -> set[str]:
+    """Names of what `module` imports: our modules resolved, third-party as written."""
+    with open(path, encoding="utf-8") as f:
+        tree = ast.parse(f.read())
+    is_package = path.endswith("__init__.py")
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = module.split(".")[: len(module.split(".")) - node.level + is_package]
+                base = ".".join(parts + ([base] if base else []))
+            for alias in node.names:
+                full = f"{base}.{alias.name}"
+                out.add(full if full in known else base)
+    return out
+
+
+def _graph() -> dict[str, set[str]]:
+    known = _modules()
+    graph = {}
+    for module, path in known.items():
+        edges = set()
+        for name in _imports(module, path, known):
+            while name and name not in known and "." in name:
+                name = name.rsplit(".", 1)[0]
+            if name in known and name != module:
+                edges.add(name)
+            elif name not in known:
+                edges.add(name)  # third-party, kept for the simulation check
+        graph[module] = edges
+    return graph
+
+
+def _is_within(name: str, prefix: str) -> bool:
+    return name == prefix or name.startswith(prefix + ".")
+
+
+def test_no_import_cycle():
+    graph = _graph()
+    state, stack, cycles = {}, [], []
+
+    def visit(node):
+        state[node] = "open"
+        stack.append(node)
+        for nxt in graph.get(node, ()):
+            if nxt not in graph:
+                continue
+            if state.get(nxt) == "open":
+                cycles.append(stack[stack.index(nxt) :] + [nxt])
+            elif nxt not in state:
+                visit(nxt)
+        stack.pop()
+        state[node] = "done"
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node)
+    assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_the_benchmark_imports_no_contestant_and_no_analysis():
+    bad = [
+        f"{m} imports {n}"
+        for m, edges in _graph().items()
+        if _is_within(m, "cpg_suite")
+        for n in edges
+        if _is_within(n, "baselines") or _is_within(n, "analysis")
+    ]
+    assert not bad, "\n".join(bad)
+
+
+def test_no_method_imports_another_method():
+    graph = _graph()
+    bad = []
+    for module, edges in graph.items():
+        mine = [m for m in METHODS if _is_within(module, m)]
+        for name in edges:
+            theirs = [m for m in METHODS if _is_within(name, m)]
+            if mine and theirs and theirs != mine:
+                bad.append(f"{module} imports {name}")
+    assert not bad, "\n".join(bad)
+
+
+def test_analysis_imports_no_simulation_code():
+    bad = []
+    for module, edges in _graph().items():
+        if not _is_within(module, "analysis"):
+            continue
+        for name in edges:
+            ours = _is_within(name, "cpg_suite") or _is_within(name, "baselines")
+            allowed = any(_is_within(name, a) for a in ANALYSIS_MAY_IMPORT)
+            simulation = any(_is_within(name, s) for s in SIMULATION)
+            if (ours and not allowed) or simulation:
+                bad.append(f"{module} imports {name}")
+    assert not bad, "\n".join(bad)
+
+
+def test_the_graph_sees_the_packages():
+    graph = _graph()
+    assert "cpg_suite.harness.runs" in graph["baselines.cem"] or any(
+        _is_within(n, "cpg_suite.harness") for n in graph["baselines.cem"]
+    )
+    assert len(graph) > 50
