@@ -76,8 +76,8 @@ PRESET_METHOD = (
 
 
 def _add_score_card(dirpath: str, found: list[dict], skipped: list[str]) -> None:
-    """A `score.json` written by `cpg_suite.protocol.score --out=DIR` becomes a leaderboard row named
-    after DIR, with no training task and no simulation budget."""
+    """A `score.json` written by `cpg_suite.protocol.score --out=DIR` becomes a leaderboard
+    row named after DIR, with no training task and no simulation budget."""
     path = os.path.join(dirpath, "score.json")
     try:
         with open(path, encoding="utf-8") as f:

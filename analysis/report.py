@@ -13,7 +13,7 @@ Writes into `--out` (PNG, matplotlib; `pip install 'cpg-suite[plots]'`):
     (Fig. 4.4), from `fig4_4.csv`;
   * with `--gaits`: `gaits_filmstrip.png` — the hand-tuned and the best gait side by side,
     a quarter stride between snapshots (thesis Fig. 6.8), and a video of each
-    (`gait_hand_tuned.mp4`, `gait_best.mp4`; GIF without ffmpeg), rendered headlessly;
+    (`hand_tuned.mp4`, `gait_best.mp4`; GIF without ffmpeg), rendered headlessly;
 and `report.md` embedding the figures, the leaderboard and the claims table (computed with
 `analysis.leaderboard` into the same folder). Figures whose data are missing are skipped
 and listed in the report; malformed run files are skipped, never a crash.
@@ -215,34 +215,48 @@ def tier_scores(darwin: list[dict], out: str) -> str | None:
     return _save(plt, fig, out, "tier_scores.png")
 
 
+# The joint-trajectory figure's window: two strides (1.1 s each) after the start-up.
+_TRAJECTORY_WINDOW_S = (8.0, 10.2)
+
+
+def _joint_targets(params: str, out: str, name: str) -> dict[str, np.ndarray]:
+    """A gait's CPG joint targets, written by `python -m cpg_suite.trajectories` (analysis
+    reads the file; it does not run the CPG itself)."""
+    path = os.path.join(out, f"{name}_joints.csv")
+    command = [
+        sys.executable,
+        "-m",
+        "cpg_suite.trajectories",
+        f"--params={params}",
+        f"--out={path}",
+    ]
+    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise RuntimeError(f"joint targets of {params} failed: {done.stderr.strip()[-500:]}")
+    table = np.genfromtxt(path, delimiter=",", names=True)
+    os.remove(path)
+    return {column: table[column] for column in table.dtype.names}
+
+
 def joint_trajectories(found: list[dict], out: str) -> str | None:
     """Hip, knee and ankle pitch (deg) of both legs, hand-tuned vs the best CEM gait."""
     best, best_distance = _best_gait_file(found)
     if best is None:
         return None
-    from cpg_suite import cpg, darwin
-
-    try:
-        found_amps = cpg.load_amplitudes(best)
-    except (ValueError, OSError, json.JSONDecodeError):
-        return None
-    dt, steps = darwin.CONTROL_TIMESTEP, 1000
     plt = _plt()
     fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
-    t = np.arange(steps) * dt
-    window = (t >= 8.0) & (t <= 8.0 + 2 * cpg.CPGConfig().stride_period)
-    for label, amps, style in (
-        ("hand-tuned", cpg.amplitudes_from("hand_tuned"), "--"),
-        (f"best ({best_distance:.2f} m)", found_amps, "-"),
+    for label, params, style in (
+        ("hand-tuned", "hand_tuned", "--"),
+        (f"best ({best_distance:.2f} m)", best, "-"),
     ):
-        z = cpg.to_anatomical(cpg.trajectories(amps, steps, dt)[0])
+        z = _joint_targets(params, out, "hand_tuned" if params == "hand_tuned" else "best")
+        window = (z["t"] >= _TRAJECTORY_WINDOW_S[0]) & (z["t"] <= _TRAJECTORY_WINDOW_S[1])
         for ax, joint, name in zip(
-            axes, (cpg.HPITCH, cpg.KNEE, cpg.APITCH), ("hip pitch", "knee", "ankle pitch")
+            axes, ("hip_pitch", "knee", "ankle_pitch"), ("hip pitch", "knee", "ankle pitch")
         ):
-            ax.plot(t[window], z[window, joint], style, color="tab:blue", label=f"left, {label}")
-            ax.plot(
-                t[window], z[window, 6 + joint], style, color="tab:red", label=f"right, {label}"
-            )
+            t = z["t"][window]
+            ax.plot(t, z[f"left_{joint}"][window], style, color="tab:blue", label=f"left, {label}")
+            ax.plot(t, z[f"right_{joint}"][window], style, color="tab:red", label=f"right, {label}")
             ax.set_ylabel(f"{name} (deg)")
     axes[0].legend(fontsize=7, ncol=2)
     axes[-1].set_xlabel("time (s)")
@@ -381,16 +395,13 @@ def gaits(found: list[dict], out: str) -> str | None:
         return None
     from PIL import Image, ImageDraw
 
-    from cpg_suite import cpg
-
-    hand_tuned = dict(zip(cpg.AMPLITUDE_NAMES, cpg.amplitudes_from("hand_tuned").tolist()))
     with open(path, encoding="utf-8") as f:
         best = json.load(f)
+    best_params = os.path.join(out, "gait_best.json")
+    with open(best_params, "w", encoding="utf-8") as f:
+        json.dump(best, f)
     strips = []
-    for name, amplitudes in (("gait_hand_tuned", {"amplitudes": hand_tuned}), ("gait_best", best)):
-        params = os.path.join(out, f"{name}.json")
-        with open(params, "w", encoding="utf-8") as f:
-            json.dump(amplitudes, f)
+    for name, params in (("hand_tuned", "hand_tuned"), ("gait_best", best_params)):
         command = [
             sys.executable,
             "-m",

@@ -39,7 +39,7 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, portable, progress
-from cpg_suite.harness import optimize, runs
+from cpg_suite.harness import grids, interface, optimize, runs
 
 # Thesis Table 6.3 (K, noise, elite), plus the variants of Sec. 6.3: the lateral penalty
 # and noise 0.2 / 1.0 (K 10, elite 2). Names are run-name prefixes.
@@ -137,7 +137,7 @@ class CEM:
 
 
 @dataclasses.dataclass(frozen=True)
-class CEMSettings(optimize.OptimizerSettings):
+class CEMSettings(interface.OptimizerSettings):
     """The settings of a CEM run (the shared ones plus elite and noise).
 
     Attributes:
@@ -200,7 +200,7 @@ def run_cem(
       `(run_dir, summary)`.
 
     Raises:
-      runs.RunDirectoryExists, optimize.CheckpointError.
+      runs.RunDirectoryExists, cpg_suite.harness.checkpoints.CheckpointError.
     """
     optimizer = CEM(
         optimize.start_vector(settings),
@@ -240,7 +240,7 @@ def main(argv):
             jobs = grid_jobs(settings, options, names, values.seeds)
         except ValueError as e:
             raise cli.UsageError(str(e)) from None
-    optimize.run_jobs(jobs, run_cem, method=METHOD)
+    grids.run_jobs(jobs, run_cem, method=METHOD)
 
 
 if __name__ == "__main__":

@@ -42,13 +42,13 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, portable, progress
-from cpg_suite.harness import optimize, runs
+from cpg_suite.harness import grids, interface, optimize, runs
 
 METHOD = "cmaes"  # its run directories' second level and its leaderboard rows
 
 
 class CMAES:
-    """The (μ/μ_w, λ)-CMA-ES behind the optimizer interface of `cpg_suite.harness.optimize`."""
+    """The (μ/μ_w, λ)-CMA-ES behind the optimizer interface of `cpg_suite.harness.interface`."""
 
     def __init__(self, mean: np.ndarray, population: int, sigma0: float, seed: int):
         """Args:
@@ -165,7 +165,7 @@ class CMAES:
 
 
 @dataclasses.dataclass(frozen=True)
-class CMAESSettings(optimize.OptimizerSettings):
+class CMAESSettings(interface.OptimizerSettings):
     """The settings of a CMA-ES run (the shared ones plus the initial step size).
 
     Attributes:
@@ -202,7 +202,7 @@ def run_cmaes(
       `(run_dir, summary)`.
 
     Raises:
-      runs.RunDirectoryExists, optimize.CheckpointError.
+      runs.RunDirectoryExists, cpg_suite.harness.checkpoints.CheckpointError.
     """
     optimizer = CMAES(
         optimize.start_vector(settings), settings.population, settings.sigma0, settings.seed
@@ -221,7 +221,7 @@ def main(argv):
     del argv
     settings = cli.settings_from_flags(CMAESSettings)
     options = cli.settings_from_flags(runs.RunOptions)
-    optimize.run_jobs([(settings, options)], run_cmaes, method=METHOD)
+    grids.run_jobs([(settings, options)], run_cmaes, method=METHOD)
 
 
 if __name__ == "__main__":

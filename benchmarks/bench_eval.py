@@ -6,8 +6,8 @@ Measures, in one process:
   1. the evaluator's physics steps per second vs a raw `mujoco.rollout` of the same model,
      initial states and controls with the same thread count (ratio; target ≥ 0.85), for
      1 and 2 threads;
-  2. its speedup over stepping the dm_control environment (`cpg_suite.evaluation.gait.evaluate_gait`)
-     for the same candidates;
+  2. its speedup over stepping the dm_control environment
+     (`cpg_suite.evaluation.gait.evaluate_gait`) for the same candidates;
   3. a whole CEM run (default settings, `--cem_rounds` rounds): wall time vs its ideal,
      simulated steps / raw rollout rate (target ≤ 1.25).
 Candidates are drawn around the hand-tuned amplitudes with the CEM's initial spread

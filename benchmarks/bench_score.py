@@ -46,7 +46,8 @@ class BenchScoreSettings:
     """What the benchmark scores.
 
     Attributes:
-      params: A preset or a JSON file of the 11 amplitudes (`cpg_suite.evaluation.gait.parse_params`).
+      params: A preset or a JSON file of the 11 amplitudes
+        (`cpg_suite.evaluation.gait.parse_params`).
       threads: Evaluator threads.
     """
 

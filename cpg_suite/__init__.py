@@ -7,7 +7,11 @@ Usage mirrors `dm_control.suite`::
     time_step = env.reset()
 
 Task ids are `<domain>_<task>`; `ALL_TASKS`, `BENCHMARKING` and `TASKS_BY_DOMAIN` hold
-`(domain, task)` pairs as in dm_control.
+`(domain, task)` pairs as in dm_control. A method of your own needs only this package:
+`cpg_suite.score_gait` / `score_policy` (the test protocol's score card),
+`cpg_suite.open_evaluator` (batched trials), `cpg_suite.run_optimizer` with `AskTell`,
+`OptimizerSettings` and `RunOptions` (training, validation and test of an ask/tell
+optimizer); docs/architecture.md#packages-and-data-flow says where everything lives.
 
 Importing the package changes no process-wide state: no environment variables, random
 generators, logging or absl flags, and does not load dm_control: the domains load on first
@@ -79,16 +83,34 @@ def _task_lists() -> dict[str, Any]:
     }
 
 
+# Short, stable names for what a user's own method calls, each `module:attribute` of the
+# benchmark (imported on first use): score a gait or a policy on the test protocol, evaluate
+# candidates, run an ask/tell optimizer through training, selection and test.
+_PUBLIC = {
+    "score_gait": "cpg_suite.protocol.score:score_gait",
+    "score_policy": "cpg_suite.protocol.score:score_policy",
+    "ScoreSettings": "cpg_suite.protocol.score:ScoreSettings",
+    "open_evaluator": "cpg_suite.evaluation:open_evaluator",
+    "OptimizerSettings": "cpg_suite.harness.interface:OptimizerSettings",
+    "RunOptions": "cpg_suite.harness.runs:RunOptions",
+    "AskTell": "cpg_suite.harness.optimize:AskTell",
+    "run_optimizer": "cpg_suite.harness.optimize:run",
+}
+
+
 def __getattr__(name: str) -> Any:
     if name in _TASK_LISTS:
         return _task_lists()[name]
+    if name in _PUBLIC:
+        module, _, attribute = _PUBLIC[name].partition(":")
+        return getattr(importlib.import_module(module), attribute)
     if name in _DOMAIN_NAMES:
         return importlib.import_module(f"cpg_suite.{name}")
     raise AttributeError(f"module 'cpg_suite' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_TASK_LISTS) | set(_DOMAIN_NAMES))
+    return sorted(set(globals()) | set(_TASK_LISTS) | set(_DOMAIN_NAMES) | set(_PUBLIC))
 
 
 def split_task_id(task_id: str) -> tuple[str, str]:

@@ -7,7 +7,8 @@ import pytest
 
 from analysis import leaderboard
 from cpg_suite import cpg
-from cpg_suite.harness import optimize, runs
+from cpg_suite.harness import interface, optimize, runs
+from cpg_suite.protocol import score
 
 cma = pytest.importorskip("cma")
 
@@ -23,7 +24,7 @@ def _pycma(seed):
     return optimize.AskTell(es)
 
 
-SETTINGS = optimize.OptimizerSettings(
+SETTINGS = interface.OptimizerSettings(
     population=5, rounds=3, trial_steps=120, validation_seeds=2, test_seeds=2
 )
 
@@ -36,7 +37,7 @@ def test_pycma_runs_resumes_and_reaches_the_leaderboard(tmp_path):
     full_options = runs.RunOptions(output_dir=str(tmp_path / "a"))
     run_dir, full = optimize.run(_pycma(1), SETTINGS, full_options, "pycma", log=lambda x: None)
     assert run_dir.endswith("pycma/darwin_walk/pycma_seed0")
-    assert "test" in full and set(full["test"]["tiers"]) == set(optimize.TASKS)
+    assert "test" in full and set(full["test"]["tiers"]) == set(interface.TASKS)
 
     def die_after_one(line):
         if line.startswith("round   1"):
@@ -68,7 +69,7 @@ def test_run_killed_while_scoring_its_test_card_is_finished_on_resume(tmp_path, 
         raise Killed
 
     with monkeypatch.context() as patch:
-        patch.setattr(optimize.score, "score_gait", killed)
+        patch.setattr(score, "score_gait", killed)
         with pytest.raises(Killed):
             optimize.run(_pycma(2), SETTINGS, options, "pycma", log=str)
     run_dir = tmp_path / "b" / "pycma" / "darwin_walk" / "pycma_seed0"

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from baselines import cem
-from cpg_suite.harness import optimize, runs
+from cpg_suite.harness import checkpoints, runs
 
 
 def test_first_sample_is_the_mean():
@@ -165,10 +165,10 @@ def test_corrupt_and_foreign_checkpoints_are_refused(tmp_path):
         cem.run_cem(settings, options, log=die)
     checkpoint = tmp_path / "cem/darwin_walk/r/checkpoint.json"
     resume = dataclasses.replace(options, resume=True)
-    with pytest.raises(optimize.CheckpointError, match="another configuration"):
+    with pytest.raises(checkpoints.CheckpointError, match="another configuration"):
         cem.run_cem(dataclasses.replace(settings, population=6), resume, log=die)
     checkpoint.write_text("{not json")
-    with pytest.raises(optimize.CheckpointError, match="cannot read"):
+    with pytest.raises(checkpoints.CheckpointError, match="cannot read"):
         cem.run_cem(settings, resume, log=die)
 
 

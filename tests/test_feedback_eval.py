@@ -71,26 +71,24 @@ def test_cmaes_tunes_the_feedback_cpg_and_its_card_is_reproducible(tmp_path):
     assert card["tiers"] == summary["test"]["tiers"]
 
 
-def test_feedback_on_ray_is_a_one_line_error(tmp_path):
-    import subprocess
-    import sys
+def test_feedback_on_ray_equals_local_bit_for_bit():
+    """The Ray backend runs the closed-loop evaluator too (chunked over actors): the same
+    trials as the local evaluator, bit for bit."""
+    pytest.importorskip("ray")
+    from cpg_suite import evaluation
+    from cpg_suite.evaluation import ray_backend
 
-    out = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "baselines.cmaes",
-            "--controller=feedback",
-            "--backend=ray",
-            f"--output_dir={tmp_path}",
-            "--rounds=1",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    errors = [line for line in out.stderr.splitlines() if line.startswith("error")]
-    assert out.returncode == 2 and len(errors) == 1 and "local" in errors[0], out.stderr
+    params, seeds = _params(3), [0, 1, 2]
+    with evaluation.open_evaluator("darwin_walk_push", 80, 2, controller="feedback") as local:
+        want = local.evaluate(params, seeds)
+    with ray_backend.connected("ray", None):
+        with evaluation.open_evaluator(
+            "darwin_walk_push", 80, 2, backend="ray", controller="feedback"
+        ) as remote:
+            assert isinstance(remote, ray_backend.RayEvaluator)
+            got = remote.evaluate(params, seeds)
+    for field in ("distance_m", "lateral_m", "fall_step"):
+        np.testing.assert_array_equal(getattr(got, field), getattr(want, field))
 
 
 def test_score_cli_refuses_a_missing_feedback_params_file(tmp_path):

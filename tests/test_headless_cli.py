@@ -59,6 +59,31 @@ def test_output_under_a_regular_file_is_one_line_before_any_work(tmp_path, modul
     assert out.stdout == ""
 
 
+def _commands() -> list[str]:
+    """Every module that runs as a command (`cli.run(main...)` under `__main__`)."""
+    found = []
+    for package in ("cpg_suite", "baselines", "analysis"):
+        for dirpath, _, names in os.walk(os.path.join(ROOT, package)):
+            for name in sorted(names):
+                path = os.path.join(dirpath, name)
+                if name.endswith(".py") and "cli.run(main" in open(path, encoding="utf-8").read():
+                    module = os.path.relpath(path, ROOT)[:-3].replace(os.sep, ".")
+                    found.append(module.removesuffix(".__main__"))
+    return sorted(found)
+
+
+def test_commands_are_found():
+    assert {"baselines.cem", "cpg_suite.evaluation.evaluate", "analysis.report"} <= set(_commands())
+
+
+@pytest.mark.parametrize("module", _commands())
+def test_every_command_says_an_unknown_flag_in_one_line(module):
+    out = _run("-m", module, "--no_such_flag=1")
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "no_such_flag" in lines[0], lines
+
+
 def test_bad_flag_is_one_line_without_rendering_noise():
     out = _run("-m", "baselines.cem", "--population=1")
     assert out.returncode == 2

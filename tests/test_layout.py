@@ -141,3 +141,14 @@ def test_the_graph_sees_the_packages():
         _is_within(n, "cpg_suite.harness") for n in graph["baselines.cem"]
     )
     assert len(graph) > 50
+
+
+def test_short_public_names_are_the_benchmark_objects():
+    import importlib
+
+    import cpg_suite
+
+    for name, target in cpg_suite._PUBLIC.items():
+        module, _, attribute = target.partition(":")
+        assert getattr(cpg_suite, name) is getattr(importlib.import_module(module), attribute)
+        assert name in dir(cpg_suite)

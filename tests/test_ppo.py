@@ -13,7 +13,7 @@ import cpg_suite
 from analysis import leaderboard, report
 from baselines import ppo
 from cpg_suite import cpg, darwin, protocol, residual, vector
-from cpg_suite.harness import runs
+from cpg_suite.harness import checkpoints, learner, runs, sb3
 from cpg_suite.protocol import score
 
 
@@ -88,7 +88,7 @@ def test_phase_rate_correction():
 
 def test_cpg_wrapper_with_zero_actions_walks_the_hand_tuned_gait():
     settings = _settings(action_space="cpg", trial_steps=1000)
-    env = ppo.make_vector_env(settings, 2, threads=1)
+    env = sb3.make_vector_env(settings, 2, threads=1)
     plain = vector.DarwinVectorEnv("darwin_walk", 2, threads=1, autoreset_mode="SameStep")
     reference = cpg.CPG("hand_tuned")  # the open-loop gait, stepped
     physics = cpg_suite.load("darwin_walk").physics
@@ -107,29 +107,29 @@ def test_cpg_wrapper_with_zero_actions_walks_the_hand_tuned_gait():
 @pytest.mark.parametrize("action_space, size", [("joints", 40), ("cpg", 42)])
 def test_flat_vec_env_terminal_observation_and_truncation(action_space, size):
     settings = _settings(action_space=action_space, trial_steps=5)
-    flat = ppo.FlatVecEnv(ppo.make_vector_env(settings, 2, threads=1))
-    reference = ppo.make_vector_env(settings, 2, threads=1)  # the same env, dicts unflattened
+    flat = sb3.FlatVecEnv(sb3.make_vector_env(settings, 2, threads=1))
+    reference = sb3.make_vector_env(settings, 2, threads=1)  # the same env, dicts unflattened
     assert flat.observation_space.shape == (size,)
     flat.seed(3)
     obs = flat.reset()
     ref_obs, _ = reference.reset(seed=3)
-    keys = ppo.observation_keys(reference.single_observation_space)
-    assert np.array_equal(obs, ppo.flatten(ref_obs, keys))
-    assert np.array_equal(obs[0], ppo.flatten_one({k: v[0] for k, v in ref_obs.items()}, keys))
+    keys = sb3.observation_keys(reference.single_observation_space)
+    assert np.array_equal(obs, sb3.flatten(ref_obs, keys))
+    assert np.array_equal(obs[0], sb3.flatten_one({k: v[0] for k, v in ref_obs.items()}, keys))
     actions = np.zeros((2, flat.action_space.shape[0]))
     for t in range(5):
         flat.step_async(actions)
         obs, rewards, dones, infos = flat.step_wait()
         ref_obs, ref_rewards, terminated, truncated, extra = reference.step(actions)
         assert np.array_equal(rewards, ref_rewards)
-        assert np.array_equal(obs, ppo.flatten(ref_obs, keys))
+        assert np.array_equal(obs, sb3.flatten(ref_obs, keys))
         if t < 4:
             assert not dones.any() and infos == [{}, {}]
     assert dones.all() and truncated.all() and not terminated.any()
     for i, info in enumerate(infos):
         assert info["TimeLimit.truncated"] and not info["fell"]
         assert np.array_equal(
-            info["terminal_observation"], ppo.flatten_one(extra["final_obs"][i], keys)
+            info["terminal_observation"], sb3.flatten_one(extra["final_obs"][i], keys)
         )
         assert not np.array_equal(info["terminal_observation"], obs[i])  # obs: the next episode
         assert info["episode"]["l"] == 5
@@ -184,10 +184,10 @@ def test_joints_run_files_leaderboard_row_and_policy(tmp_path):
     assert report.score_vs_budget(found, str(tmp_path / "report")).endswith("score_vs_budget.png")
     assert report.learning_curves(found, str(tmp_path / "report")).endswith("learning_curves.png")
     # The saved policy scores what the run's validation measured (step by step vs vectorized).
-    policy = ppo.PPOPolicy.load(run_dir)
+    policy = ppo.load_policy(run_dir)
     trial = score.policy_trial(policy, "darwin_walk", protocol.VALIDATION.start, 30)
-    env = ppo.make_vector_env(settings, 1, threads=1)
-    value, _, _ = ppo.validate(
+    env = sb3.make_vector_env(settings, 1, threads=1)
+    value, _, _ = learner.validate(
         policy.model, policy.normalizer, env, dataclasses.replace(settings, validation_seeds=1)
     )
     assert trial["distance_m"] * (not trial["fell"]) == pytest.approx(value, abs=1e-9)
@@ -220,7 +220,7 @@ def test_cpg_run_killed_after_a_checkpoint_resumes_to_the_same_result(tmp_path):
         summary_bytes = f.read()
     os.remove(os.path.join(run_dir, "summary.json"))
     foreign = dataclasses.replace(settings, learning_rate=1e-3)
-    with pytest.raises(ppo.CheckpointError, match="another configuration"):
+    with pytest.raises(checkpoints.CheckpointError, match="another configuration"):
         ppo.run(foreign, _options(tmp_path / "b", resume=True, run_name="cpg_seed0"), log=_quiet)
     assert summary_bytes
 

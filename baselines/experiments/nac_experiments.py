@@ -64,7 +64,7 @@ BASE = {
 
 @dataclasses.dataclass(frozen=True)
 class NACExperimentSettings:
-    """The NAC experiments (the flags of `python -m baselines.experiments.nac_experiments`); validated.
+    """The NAC experiments (flags of `python -m baselines.experiments.nac_experiments`).
 
     Attributes:
       output_dir: Root of the output tree (runs under `nac/`, the table beside it).

@@ -5,7 +5,7 @@ returns a `BatchResult` ((K, S) distances, lateral drifts, fall steps and, on re
 quality). The implementations:
 
   * `open_loop.BatchEvaluator`: open-loop CPG amplitudes; precomputed controls run through
-    threaded `mujoco.rollout` (docs/architecture.md#batched-evaluation);
+    threaded `mujoco.rollout` (docs/architecture.md#the-batched-evaluator);
   * `closed_loop.FeedbackEvaluator`: feedback-CPG parameters; the controller is stepped
     with the physics, K × S trials at once;
   * `ray_backend.RayEvaluator`: either of them on Ray actors, chunked (same results).
@@ -16,14 +16,14 @@ backend); a new backend is a new module here with an `Evaluator` and a branch th
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from cpg_suite.cli import BACKENDS, CONTROLLERS
-from cpg_suite.evaluation.closed_loop import FeedbackEvaluator
-from cpg_suite.evaluation.open_loop import BatchEvaluator, BatchResult
-from cpg_suite.evaluation.ray_backend import RayEvaluator
+
+if TYPE_CHECKING:
+    from cpg_suite.evaluation.open_loop import BatchResult
 
 
 class Evaluator(Protocol):
@@ -71,6 +71,13 @@ def open_evaluator(
       ValueError: On an unknown backend or controller, and as the evaluators do.
       ray_backend.ClusterUnreachable: For the Ray backend, if no cluster answers.
     """
+    # The implementations load MuJoCo and dm_control: imported here, so that a command of
+    # this package (`python -m cpg_suite.evaluation.evaluate`) can choose its rendering
+    # backend before they load.
+    from cpg_suite.evaluation.closed_loop import FeedbackEvaluator
+    from cpg_suite.evaluation.open_loop import BatchEvaluator
+    from cpg_suite.evaluation.ray_backend import RayEvaluator
+
     if controller not in CONTROLLERS:
         raise ValueError(f"unknown controller {controller!r}; valid: {', '.join(CONTROLLERS)}")
     if backend == "ray":  # one single-thread actor per CPU: `threads` is the local backend's

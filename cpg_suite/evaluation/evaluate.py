@@ -42,7 +42,7 @@ def define_flags() -> None:
 
 @dataclasses.dataclass(frozen=True)
 class EvaluateSettings:
-    """Which gait to evaluate, where and how (the flags of `python -m cpg_suite.evaluation.evaluate`).
+    """Which gait to evaluate, where and how (flags of `python -m cpg_suite.evaluation.evaluate`).
 
     Attributes:
       task: One of `cpg_suite.evaluation.gait.DARWIN_TASKS`.

@@ -1,4 +1,6 @@
-"""Evaluating open-loop CPG gaits on the DARwIn-OP tasks (library; CLI: `cpg_suite.evaluation.evaluate`).
+"""Evaluating open-loop CPG gaits on the DARwIn-OP tasks by stepping the environment.
+
+The command line is `python -m cpg_suite.evaluation.evaluate`.
 
 `evaluate_gait` steps the dm_control environment control step by control step: it is the
 reference that faster evaluators are checked against.

@@ -115,13 +115,14 @@ def _atomic_write_bytes(path: str, data: bytes) -> None:
         raise
 
 
-def _to_jsonable(obj):
+def to_jsonable(obj):
+    """`obj` with NumPy arrays and scalars turned into lists and Python numbers."""
     if isinstance(obj, dict):
-        return {str(k): _to_jsonable(v) for k, v in obj.items()}
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_to_jsonable(v) for v in obj]
+        return [to_jsonable(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return _to_jsonable(obj.tolist())
+        return to_jsonable(obj.tolist())
     if isinstance(obj, np.bool_):
         return bool(obj)
     if isinstance(obj, np.integer):
@@ -133,7 +134,7 @@ def _to_jsonable(obj):
 
 def write_json(path: str, obj) -> None:
     """Writes `obj` as indented JSON, atomically (numpy values are converted)."""
-    text = json.dumps(_to_jsonable(obj), indent=2, sort_keys=False) + "\n"
+    text = json.dumps(to_jsonable(obj), indent=2, sort_keys=False) + "\n"
     _atomic_write_bytes(path, text.encode("utf-8"))
 
 
@@ -187,7 +188,7 @@ class ProgressCSV:
             self._file.flush()
 
     def append(self, row: dict) -> None:
-        self._writer.writerow({k: _to_jsonable(row.get(k, "")) for k in self.fieldnames})
+        self._writer.writerow({k: to_jsonable(row.get(k, "")) for k in self.fieldnames})
         self._file.flush()
 
     def close(self) -> None:

@@ -1,13 +1,15 @@
 r"""The benchmark's score card: what a gait or a policy does on the held-out test tiers.
 
   python -m cpg_suite.protocol.score --params=hand_tuned
-  python -m cpg_suite.protocol.score --params=runs/cmaes/darwin_walk/K50_s1_seed0/best_params.json --out=DIR
+  python -m cpg_suite.protocol.score --out=DIR \
+      --params=runs/cmaes/darwin_walk/K50_s1_seed0/best_params.json
 
 Per tier (`cpg_suite.protocol.TIERS`), over the 50 test seeds: success-weighted distance (a
 fallen trial scores 0; the score that ranks methods), fall rate, the distance's mean, median
 and interquartile mean, 95 % bootstrap intervals (`scipy.stats.bootstrap`, percentile, a
 fixed generator so a card is reproducible) and a Wilson interval for the fall rate, and the
-gait-quality medians of `cpg_suite.evaluation.quality`. "all" pools the tiers' trials (equal weight).
+gait-quality medians of `cpg_suite.evaluation.quality`. "all" pools the tiers' trials (equal
+weight).
 
 Open-loop gaits run on the batched `mujoco.rollout` evaluator; a policy (any callable from
 a dm_env observation to a 12-vector action in [−1, 1]) runs step by step. Both give the
@@ -173,12 +175,48 @@ def score_gait(amplitudes: np.ndarray, settings: ScoreSettings | None = None) ->
     Raises:
       ray_backend.ClusterUnreachable: With backend "ray", if no cluster answers.
     """
+    return score_gait_trials(amplitudes, settings)[0]
+
+
+# The columns of a card's per-trial table (`score_gait_trials`, `trials.csv` of a shipped run).
+TRIAL_FIELDS = ("tier", "seed", "distance_m", "fell", "fall_step")
+
+
+def score_gait_trials(
+    amplitudes: np.ndarray, settings: ScoreSettings | None = None
+) -> tuple[dict, list[dict]]:
+    """The score card of a gait (`score_gait`) and the trials behind it.
+
+    Args:
+      amplitudes: The 11 CPG amplitudes (or the feedback CPG's parameters), degrees.
+      settings: What to measure (default: every tier, all 50 test seeds).
+
+    Returns:
+      `(card, trials)`: `trials` has one row per tier and test seed with `TRIAL_FIELDS`
+      (distance in metres, the fall flag, the 1-based control step of the fall or 0).
+
+    Raises:
+      ray_backend.ClusterUnreachable: With backend "ray", if no cluster answers.
+    """
     settings = settings or ScoreSettings()
     with ray_backend.connected(settings.backend, settings.ray_address):
-        return _score_tiers(amplitudes, settings)
+        per_tier, card = _score_tiers(amplitudes, settings)
+    seeds = protocol.held_out_seeds(settings.seeds)
+    trials = [
+        {
+            "tier": tier,
+            "seed": seed,
+            "distance_m": float(per_tier[tier]["d"][i]),
+            "fell": bool(per_tier[tier]["f"][i]),
+            "fall_step": int(per_tier[tier]["s"][i]),
+        }
+        for tier in settings.tiers
+        for i, seed in enumerate(seeds)
+    ]
+    return card, trials
 
 
-def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> dict:
+def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> tuple[dict, dict]:
     seeds = protocol.held_out_seeds(settings.seeds)
     per_tier, sim_steps = {}, 0
     for tier in progress.track(settings.tiers, desc="tiers", unit="tier"):
@@ -194,10 +232,11 @@ def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> dict:
         per_tier[tier] = {
             "d": result.distance_m[0],
             "f": result.fell[0],
+            "s": result.fall_step[0],
             "q": {f: v[0] for f, v in result.quality.items()},
         }
         sim_steps += result.sim_steps
-    return _card(per_tier, settings, {"sim_steps": sim_steps})
+    return per_tier, _card(per_tier, settings, {"sim_steps": sim_steps})
 
 
 def policy_trial(

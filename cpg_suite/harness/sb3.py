@@ -1,0 +1,359 @@
+r"""Stable-Baselines3 on the DARwIn-OP walking tiers: what any SB3 learner (PPO, SAC, ...) reuses.
+
+Needs the `rl` extra (Stable-Baselines3, PyTorch, Gymnasium); only learners import this
+module.
+
+* `make_vector_env`: the (dict-observation) vector env a policy acts in,
+  `cpg_suite.vector.DarwinVectorEnv` with same-step autoreset, in one of two action spaces:
+  `joints` (the 12 normalized leg joint targets) or `cpg` (the policy modulates the study's
+  CPG every control step, `cpg_suite.residual.CPGActions`, and also sees its phase).
+* `FlatVecEnv`: that env as an SB3 `VecEnv`, the observation dict flattened in the fixed
+  order `OBS_KEYS` (then the CPG phase); `normalized` wraps it in SB3's `VecNormalize`.
+* `TrainedPolicy`: a trained model and its `VecNormalize` statistics as a policy for one
+  environment, as `cpg_suite.protocol.score.score_policy` runs it.
+* `import_torch`, `load_model`, `model_bytes`: torch imported safely, models to and from
+  bytes.
+
+Import order: with MUJOCO_GL=egl, torch must be imported before dm_control loads (README);
+this module imports torch before any module of `cpg_suite`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import io
+import os
+import pickle
+import sys
+import types
+from typing import Protocol
+
+import gymnasium
+import numpy as np
+import torch  # before cpg_suite: with MUJOCO_GL=egl the other order crashes torch (README)
+from gymnasium.vector import AutoresetMode
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.vec_env import VecEnv, VecNormalize
+
+import cpg_suite
+from cpg_suite import darwin, residual, vector
+
+# The flattened observation: these keys of the task's observation, in this order (then the
+# CPG phase for the cpg action space).
+OBS_KEYS = (
+    "joint_angles",
+    "joint_velocities",
+    "torso_orientation",
+    "torso_height",
+    "torso_velocity",
+    "gyro",
+    "accelerometer",
+    "foot_touch",
+)
+
+
+class EnvSettings(Protocol):
+    """The settings of a run that decide the environment its policy acts in."""
+
+    @property
+    def task(self) -> str: ...  # the training tier
+
+    @property
+    def action_space(self) -> str: ...  # "joints" or "cpg"
+
+    @property
+    def trial_steps(self) -> int: ...  # control steps per episode
+
+    @property
+    def amplitude_scale(self) -> float: ...  # cpg: degrees per unit action
+
+    @property
+    def rate_scale(self) -> float: ...  # cpg: phase rate ω (1 + rate_scale · a)
+
+
+# Environments.
+def make_vector_env(
+    settings: EnvSettings, num_envs: int, threads: int | None = None, task: str | None = None
+) -> gymnasium.vector.VectorEnv:
+    """The (dict-observation) vector env the policy acts in.
+
+    Args:
+      settings: The run's settings.
+      num_envs: Sub-environments.
+      threads: Physics threads (results do not depend on them; None: the usable CPUs).
+      task: The tier (None: `settings.task`).
+
+    Returns:
+      `DarwinVectorEnv` with same-step autoreset and episodes of `trial_steps`, wrapped in
+      the CPG action space for `action_space="cpg"`.
+    """
+    env = vector.DarwinVectorEnv(
+        task or settings.task,
+        num_envs,
+        threads=threads,
+        autoreset_mode=AutoresetMode.SAME_STEP,
+        time_limit=settings.trial_steps * darwin.CONTROL_TIMESTEP,
+    )
+    if settings.action_space == "cpg":
+        env = residual.CPGActions(
+            env, amplitude_scale=settings.amplitude_scale, rate_scale=settings.rate_scale
+        )
+    return env
+
+
+def observation_keys(space: gymnasium.spaces.Dict) -> tuple[str, ...]:
+    """`OBS_KEYS`, then the CPG phase if the space has it."""
+    return OBS_KEYS + ((residual.PHASE_KEY,) if residual.PHASE_KEY in space.spaces else ())
+
+
+def flatten(observations: dict, keys: tuple[str, ...]) -> np.ndarray:
+    """(N, D) float64 from a dict of (N, ...) arrays, the keys in order."""
+    n = len(observations[keys[0]])
+    return np.concatenate(
+        [np.asarray(observations[k], dtype=np.float64).reshape(n, -1) for k in keys], axis=1
+    )
+
+
+def flatten_one(observation: dict, keys: tuple[str, ...]) -> np.ndarray:
+    """(D,) float64 from one environment's observation dict."""
+    return np.concatenate([np.asarray(observation[k], dtype=np.float64).ravel() for k in keys])
+
+
+class FlatVecEnv(VecEnv):
+    """A same-step-autoreset Gymnasium vector env with dict observations as an SB3 `VecEnv`.
+
+    Observations are flattened in `observation_keys` order. `step_wait` returns
+    `dones = terminated | truncated` and, for each finished sub-environment,
+    `infos[i]["terminal_observation"]` (its last observation, flattened),
+    `infos[i]["TimeLimit.truncated"]` (truncated and not terminated, so SB3 bootstraps
+    it), `infos[i]["fell"]` and `infos[i]["episode"]` (raw return `r`, length `l`, as
+    SB3's `Monitor` gives). `seed(s)` makes the next `reset` seed sub-environment i with
+    s + i. Finished episodes are collected for `drain_episodes`.
+    """
+
+    def __init__(self, env: gymnasium.vector.VectorEnv):
+        """Args:
+          env: The vector env (`make_vector_env`).
+
+        Raises:
+          ValueError: If its autoreset mode is not same-step.
+        """
+        if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
+            raise ValueError("FlatVecEnv needs a vector env with AutoresetMode.SAME_STEP")
+        self.env = env
+        self.keys = observation_keys(env.single_observation_space)
+        size = sum(int(np.prod(env.single_observation_space[k].shape)) for k in self.keys)
+        space = gymnasium.spaces.Box(-np.inf, np.inf, (size,), np.float64)
+        super().__init__(env.num_envs, space, env.single_action_space)
+        self._next_seed: int | None = None
+        self._actions = None
+        self._returns = np.zeros(self.num_envs)
+        self._lengths = np.zeros(self.num_envs, dtype=np.int64)
+        self._episodes: list[tuple[float, int, bool]] = []
+
+    @property
+    def physics_steps(self) -> int:
+        """Physics steps simulated by the sub-environments so far."""
+        return int(self.env.unwrapped.physics_steps)
+
+    def drain_episodes(self) -> list[tuple[float, int, bool]]:
+        """(return, length, fell) of the episodes finished since the last call."""
+        out, self._episodes = self._episodes, []
+        return out
+
+    def seed(self, seed: int | None = None) -> list[int | None]:
+        """Seeds the next `reset`: sub-environment i with `seed` + i."""
+        self._next_seed = seed
+        return [None if seed is None else seed + i for i in range(self.num_envs)]
+
+    def reset(self) -> np.ndarray:
+        observations, _ = self.env.reset(seed=self._next_seed)
+        self._next_seed = None
+        self._returns[:] = 0.0
+        self._lengths[:] = 0
+        return flatten(observations, self.keys)
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions)
+
+    def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict]]:
+        observations, rewards, terminated, truncated, extra = self.env.step(self._actions)
+        rewards = np.asarray(rewards, dtype=np.float64)
+        terminated, truncated = np.asarray(terminated), np.asarray(truncated)
+        dones = terminated | truncated
+        self._returns += rewards
+        self._lengths += 1
+        infos: list[dict] = [{} for _ in range(self.num_envs)]
+        for i in np.flatnonzero(dones):
+            fell = bool(terminated[i])
+            infos[i] = {
+                "terminal_observation": flatten_one(extra["final_obs"][i], self.keys),
+                "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
+                "fell": fell,
+                "episode": {"r": float(self._returns[i]), "l": int(self._lengths[i]), "t": 0.0},
+            }
+            self._episodes.append((float(self._returns[i]), int(self._lengths[i]), fell))
+            self._returns[i], self._lengths[i] = 0.0, 0
+        return flatten(observations, self.keys), rewards, dones, infos
+
+    def close(self) -> None:
+        self.env.close()
+
+    def get_attr(self, attr_name: str, indices=None) -> list:
+        n = len(self._indices(indices))
+        value = None if attr_name == "render_mode" else getattr(self.env, attr_name)
+        return [value] * n
+
+    def set_attr(self, attr_name: str, value, indices=None) -> None:
+        setattr(self.env, attr_name, value)
+
+    def env_method(self, method_name: str, *args, indices=None, **kwargs) -> list:
+        raise NotImplementedError("FlatVecEnv has no per-environment methods")
+
+    def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
+        return [False] * len(self._indices(indices))
+
+    def _indices(self, indices) -> list[int]:
+        if indices is None:
+            return list(range(self.num_envs))
+        return [indices] if isinstance(indices, int) else list(indices)
+
+
+def normalized(env: VecEnv, gamma: float) -> VecNormalize:
+    """`env` behind SB3's `VecNormalize`: observations (clipped at 10) and rewards.
+
+    Args:
+      env: The training env (`FlatVecEnv`).
+      gamma: The learner's discount (the reward scale is that of the discounted return).
+
+    Returns:
+      The normalizing wrapper, its statistics fresh.
+    """
+    return VecNormalize(env, norm_obs=True, norm_reward=True, clip_obs=10.0, gamma=gamma)
+
+
+# The trained policy.
+class TrainedPolicy:
+    """A trained policy for one environment (`cpg_suite.protocol.score.score_policy`): a dm_env
+    observation → (12,) normalized joint targets, deterministic.
+
+    Flattens the observation (`OBS_KEYS`, plus the CPG phase for the cpg action space),
+    normalizes it with the run's VecNormalize statistics, takes the policy's mean action
+    and, for the cpg action space, steps its own CPG row (`reset()` before each episode).
+    """
+
+    def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize, settings: EnvSettings):
+        """Args:
+        model: The trained SB3 model.
+        normalizer: Its VecNormalize (statistics only; not updated).
+        settings: The run's settings (its action space).
+        """
+        self.model, self.normalizer, self.settings = model, normalizer, settings
+        self.cpg = None
+        if settings.action_space == "cpg":
+            self.cpg = residual.ModulatedCPG(
+                1, amplitude_scale=settings.amplitude_scale, rate_scale=settings.rate_scale
+            )
+            self._physics = cpg_suite.load("darwin_walk").physics
+        self.keys = OBS_KEYS + ((residual.PHASE_KEY,) if self.cpg is not None else ())
+
+    @classmethod
+    def load(
+        cls,
+        run_dir: str,
+        algorithm: type[BaseAlgorithm],
+        settings: EnvSettings,
+        which: str = "selected",
+    ) -> TrainedPolicy:
+        """A run's policy from `<which>_model.zip` and `<which>_vecnormalize.pkl`.
+
+        Args:
+          run_dir: The run directory.
+          algorithm: The SB3 algorithm class that trained it (e.g. `PPO`).
+          settings: The run's settings.
+          which: "selected" (the best validation) or "final".
+
+        Returns:
+          The policy.
+        """
+        with open(os.path.join(run_dir, f"{which}_model.zip"), "rb") as f:
+            data = f.read()
+        with open(os.path.join(run_dir, f"{which}_vecnormalize.pkl"), "rb") as f:
+            normalizer = pickle.loads(f.read())
+        return cls(load_model(algorithm, data), normalizer, settings)
+
+    def reset(self) -> None:
+        """Restarts the policy's CPG (before each episode)."""
+        if self.cpg is not None:
+            self.cpg.reset()
+
+    def __call__(self, observation: dict) -> np.ndarray:
+        features = dict(observation)
+        if self.cpg is not None:
+            features[residual.PHASE_KEY] = self.cpg.phase_features()[0]
+        flat = flatten_one(features, self.keys)[None]
+        action = predict(self.model, self.normalizer, flat)
+        if self.cpg is None:
+            return action[0]
+        return residual.joint_actions(action, self.cpg, self._physics, darwin.CONTROL_TIMESTEP)[0]
+
+
+def predict(model: BaseAlgorithm, normalizer: VecNormalize, flat: np.ndarray) -> np.ndarray:
+    """The deterministic (mean) actions, clipped to [−1, 1], for raw flat observations.
+
+    Args:
+      model: The SB3 model.
+      normalizer: Its VecNormalize (statistics only; not updated).
+      flat: (N, D) raw flattened observations.
+
+    Returns:
+      (N, A) float64 actions.
+    """
+    actions, _ = model.predict(normalizer.normalize_obs(flat), deterministic=True)
+    return np.asarray(actions, dtype=np.float64)
+
+
+# Torch and models.
+def import_torch() -> types.ModuleType:
+    """torch, with `torch._dynamo` imported while Triton is hidden.
+
+    With MUJOCO_GL=egl, dm_control's EGL bindings are loaded when `cpg_suite` is imported,
+    and importing Triton's native library after them crashes the process (segmentation
+    fault). torch imports Triton lazily, through `torch._dynamo`, when the first optimizer
+    is built; CPU training never uses Triton, so `torch._dynamo` is imported with Triton
+    reported missing (only if neither is imported yet). Nothing else changes.
+
+    Returns:
+      The `torch` module.
+    """
+    if "torch._dynamo" not in sys.modules and "triton" not in sys.modules:
+        sys.modules["triton"] = None  # `import triton` raises ImportError
+        try:
+            importlib.import_module("torch._dynamo")
+        finally:
+            del sys.modules["triton"]
+    return torch
+
+
+def load_model(
+    algorithm: type[BaseAlgorithm], data: bytes, env: VecEnv | None = None
+) -> BaseAlgorithm:
+    """A model saved by `model_bytes`, on the CPU.
+
+    Args:
+      algorithm: Its SB3 algorithm class (e.g. `PPO`).
+      data: The saved model (an SB3 zip file's bytes).
+      env: The env it goes on training in (None: it only predicts).
+
+    Returns:
+      The model, with its optimizer state.
+    """
+    import_torch()
+    return algorithm.load(io.BytesIO(data), env=env, device="cpu")
+
+
+def model_bytes(model: BaseAlgorithm) -> bytes:
+    """The model saved as an SB3 zip file (with its optimizer state), as bytes."""
+    buf = io.BytesIO()
+    model.save(buf)
+    return buf.getvalue()
