@@ -200,7 +200,7 @@ def test_initial_state_is_randomized(task_id):
 def test_factory_signature(task_id):
     """Factories take (time_limit, random, environment_kwargs) as in dm_control."""
     domain, task = cpg_suite.split_task_id(task_id)
-    factory = cpg_suite._DOMAINS[domain].SUITE[task]
+    factory = getattr(cpg_suite, domain).SUITE[task]
     params = factory.__code__.co_varnames[: factory.__code__.co_argcount]
     for name in ("time_limit", "random", "environment_kwargs"):
         assert name in params
