@@ -37,6 +37,7 @@ from absl import flags
 
 from analysis import published
 from cpg_suite import cli
+from cpg_suite.protocol import aggregate
 from cpg_suite.protocol.stats import mean_std_ci95
 
 _SEED = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
@@ -196,8 +197,15 @@ def leaderboard_rows(found: list[dict]) -> list[dict]:
 
 TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
 QUALITY = ("cost_of_transport", "slip_per_m", "torque_limit_share", "peak_joint_speed")
+# Budget tracks (docs/protocol.md#ranking): the study's budget is at most 2,501 training
+# trials (K = 50 for 50 rounds, plus the start) or 2.5 M training control steps (PPO).
+STUDY_TRIALS, STUDY_CONTROL_STEPS = 2501, 2_500_000
+TRACKS = ("study", "4x", "over_4x")
+MIN_SEEDS = 5  # fewer seeds: provisional, not ranked
 DARWIN_FIELDS = [
+    "track",
     "rank",
+    "status",
     "training_task",
     "method",
     "config",
@@ -206,6 +214,13 @@ DARWIN_FIELDS = [
     "test_ci95_low",
     "test_ci95_high",
     "test_fall_rate",
+    "iqm_m",
+    "iqm_ci95_low",
+    "iqm_ci95_high",
+    "p_improvement_next",
+    "p_improvement_ci95_low",
+    "p_improvement_ci95_high",
+    "tied_with_next",
     *[f"{tier}_{x}" for tier in TIERS for x in ("score_m", "ci95_low", "ci95_high", "fall_rate")],
     *QUALITY,
     "budget_trials",
@@ -223,21 +238,59 @@ def _mean(values) -> float | str:
 
 def _test_score(tests: list[dict], tier: str | None = None) -> tuple[float, float, float]:
     """Mean test score over seeds (all tiers, or one); its interval: the run's bootstrap
-    interval for one seed, the t-interval over seeds for more."""
+    interval for one seed, the stratified bootstrap interval over the runs for more."""
     cards = [t["all"] if tier is None else t["tiers"][tier] for t in tests]
     scores = [c["success_weighted_distance_m"]["mean"] for c in cards]
     if len(scores) == 1:
         low, high = cards[0]["success_weighted_distance_m"]["ci95"]
         return scores[0], low, high
-    mean, _, low, high = _stats(scores)
-    return mean, low, high
+    if tier is None:
+        low, high = aggregate.interval(score_matrix(tests), aggregate.mean)
+        return float(np.mean(score_matrix(tests))), low, high
+    low, high = aggregate.interval(np.array(scores)[:, None], aggregate.mean)
+    return float(np.mean(scores)), low, high
+
+
+def score_matrix(tests: list[dict]) -> np.ndarray:
+    """(runs × tiers) success-weighted distances of a configuration's test cards.
+
+    Args:
+      tests: The runs' test cards (`summary["test"]`), each with all four tiers.
+    """
+    return np.array(
+        [[t["tiers"][tier]["success_weighted_distance_m"]["mean"] for tier in TIERS] for t in tests]
+    )
+
+
+def budget_track(summaries: list[dict]) -> str:
+    """The budget track of a configuration's runs: "study" (at most 2,501 training trials,
+    or 2.5 M training control steps for a policy learner), "4x" (four times that) or
+    "over_4x"; "" for presets (no training)."""
+    if not any("evaluations" in s or "env_steps" in s for s in summaries):
+        return ""
+    ratio = max(
+        s["env_steps"] / STUDY_CONTROL_STEPS
+        if "env_steps" in s
+        else s["evaluations"] / STUDY_TRIALS
+        for s in summaries
+    )
+    return "study" if ratio <= 1 else "4x" if ratio <= 4 else "over_4x"
 
 
 def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
     task, method, config = key
     tests = [s["test"] for s in summaries]
     score, low, high = _test_score(tests)
+    track = budget_track(summaries)
+    ranked = (
+        bool(track)
+        and len(summaries) >= MIN_SEEDS
+        and all(set(TIERS) <= set(t["tiers"]) for t in tests)
+    )
     row = {
+        "track": track,
+        "status": "ranked" if ranked else ("reference" if not track else "provisional"),
+        "_scores": score_matrix(tests) if ranked else None,
         "training_task": task,
         "method": method,
         "config": config,
@@ -252,6 +305,10 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
         ),
         "in_sample_best_m": _mean([s.get("best_distance_m") for s in summaries]),
     }
+    if ranked:
+        stats = aggregate.summary(row["_scores"])
+        row["iqm_m"] = stats["iqm"]
+        row["iqm_ci95_low"], row["iqm_ci95_high"] = stats["iqm_ci95"]
     for tier in TIERS:
         if all(tier in t["tiers"] for t in tests):
             mean, low, high = _test_score(tests, tier)
@@ -284,50 +341,37 @@ def darwin_rows(found: list[dict]) -> list[dict]:
 
 
 def _ranked(rows: list[dict]) -> list[dict]:
-    """The rows sorted by test score, best first, with their `rank` set."""
-    rows.sort(key=lambda r: -r["test_score_m"])
-    for rank, row in enumerate(rows, 1):
-        row["rank"] = rank
+    """The rows by track; in each, the ranked configurations by IQM (best first) with the
+    probability of improvement of each over the next, then the provisional ones by mean
+    test score; the presets last. Neighbours whose P(improvement) interval holds 0.5 are
+    tied (docs/protocol.md#ranking)."""
+
+    def order(row):
+        track = TRACKS.index(row["track"]) if row["track"] in TRACKS else len(TRACKS)
+        ranked = row.get("status") == "ranked"
+        return (track, not ranked, -(row["iqm_m"] if ranked else row["test_score_m"]))
+
+    rows.sort(key=order)
+    for track in TRACKS:
+        ranked = [r for r in rows if r["track"] == track and r.get("status") == "ranked"]
+        for rank, row in enumerate(ranked, 1):
+            row["rank"] = rank
+        for upper, lower in zip(ranked, ranked[1:]):
+            _compare(upper, lower)
+    for row in rows:
+        row.pop("_scores", None)
+        if row.get("status") != "ranked":
+            row["rank"] = ""
     return rows
 
 
-def _number(text: str):
-    """A CSV cell as it was written: int, float or the empty string."""
-    if text == "":
-        return ""
-    try:
-        return int(text)
-    except ValueError:
-        try:
-            return float(text)
-        except ValueError:
-            return text
-
-
-def carry_darwin_rows(rows: list[dict], path: str) -> list[dict]:
-    """`rows` plus the rows of an earlier DARwIn leaderboard CSV (e.g. the committed
-    results/protocol/darwin_leaderboard.csv) for configurations `rows` lacks, re-ranked by
-    test score. A configuration with runs at hand is always scored from them.
-
-    Args:
-      rows: `darwin_rows` of the runs at hand.
-      path: A CSV written with `DARWIN_FIELDS`.
-
-    Returns:
-      The merged rows, ranked.
-
-    Raises:
-      OSError: If `path` cannot be read.
-      ValueError: If its header is not `DARWIN_FIELDS`.
-    """
-    with open(path, newline="", encoding="utf-8") as f:
-        reader = csv.DictReader(f)
-        if reader.fieldnames != DARWIN_FIELDS:
-            raise ValueError(f"{path} is not a DARwIn leaderboard (its header differs)")
-        earlier = [{k: _number(v) for k, v in row.items()} for row in reader]
-    have = {(r["training_task"], r["method"], r["config"]) for r in rows}
-    carried = [r for r in earlier if (r["training_task"], r["method"], r["config"]) not in have]
-    return _ranked(list(rows) + carried)
+def _compare(upper: dict, lower: dict) -> None:
+    """Sets `upper`'s probability of improvement over `lower`, its interval, and the tie."""
+    x, y = upper["_scores"], lower["_scores"]
+    low, high = aggregate.improvement_interval(x, y)
+    upper["p_improvement_next"] = aggregate.probability_of_improvement(x, y)
+    upper["p_improvement_ci95_low"], upper["p_improvement_ci95_high"] = low, high
+    upper["tied_with_next"] = bool(low <= 0.5 <= high)
 
 
 def _carried_claims(root: str) -> list[dict]:

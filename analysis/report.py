@@ -181,6 +181,43 @@ def learning_curves(found: list[dict], out: str) -> str | None:
     return _save(plt, fig, out, "learning_curves.png")
 
 
+def _track_configurations(found: list[dict]) -> dict[str, dict[str, np.ndarray]]:
+    """Per budget track, each ranked-or-provisional DARwIn configuration's (runs × tiers)
+    test scores (a run must have a card with all four tiers)."""
+    groups = defaultdict(list)
+    for run in found:
+        test = run["summary"].get("test")
+        if isinstance(test, dict) and set(leaderboard.TIERS) <= set(test.get("tiers", {})):
+            groups[(run["task"], run["method"], run["config"])].append(run["summary"])
+    tracks = defaultdict(dict)
+    for (task, method, config), summaries in sorted(groups.items()):
+        track = leaderboard.budget_track(summaries)
+        if track:
+            label = f"{method} {config} ({task}, {len(summaries)} seeds)"
+            tracks[track][label] = leaderboard.score_matrix([s["test"] for s in summaries])
+    return tracks
+
+
+def performance_profiles(found: list[dict], out: str) -> str | None:
+    """Per budget track, the fraction of runs × tiers whose test score exceeds τ, against τ
+    (rliable's performance profile; docs/protocol.md#ranking)."""
+    tracks = _track_configurations(found)
+    if not tracks:
+        return None
+    plt = _plt()
+    fig, axes = plt.subplots(1, len(tracks), figsize=(6 * len(tracks), 4), squeeze=False)
+    for ax, (track, configurations) in zip(axes[0], sorted(tracks.items())):
+        top = max(float(np.max(s)) for s in configurations.values())
+        taus = np.linspace(0.0, max(top, 1e-3) * 1.05, 200)
+        for label, scores in configurations.items():
+            ax.plot(taus, [(scores.ravel() > tau).mean() for tau in taus], label=label)
+        ax.set_xlabel("τ: test success-weighted distance (m)")
+        ax.set_ylabel("fraction of runs × tiers above τ")
+        ax.set_title(f"budget track: {track}", fontsize=9)
+        ax.legend(fontsize=7)
+    return _save(plt, fig, out, "performance_profiles.png")
+
+
 def tier_scores(darwin: list[dict], out: str) -> str | None:
     """Test score per tier with its interval, one group of bars per scored configuration
     (presets and runs of at least 2,000 training trials; where there are none, as in a
@@ -447,6 +484,7 @@ def _figures(found, darwin: list[dict], runs: str, out: str, with_gaits: bool) -
     figures = [
         ("Validation score vs simulation budget", score_vs_budget(found, out)),
         ("Test score per tier", tier_scores(darwin, out)),
+        ("Performance profiles per budget track", performance_profiles(found, out)),
         ("CEM rounds (thesis Fig. 6.2-6.6)", cem_rounds(found, out)),
         ("Joint trajectories, hand-tuned vs best gait (Fig. 6.9)", joint_trajectories(found, out)),
         ("RMS error of real-time crawler learners (Fig. 4.6)", rms_error(found, out)),
@@ -505,27 +543,18 @@ class ReportSettings:
       runs: The root of the run directories; must be an existing directory.
       out: The folder the figures, report.md and the CSVs go into.
       gaits: Also render the hand-tuned and the best gait (a child process renders).
-      carry: An earlier darwin_leaderboard.csv whose rows are kept for configurations
-        without runs under `runs` (None: none).
     """
 
     runs: str | None = None
     out: str | None = None
     gaits: bool = False
-    carry: str | None = None
 
     def __post_init__(self):
         leaderboard.check_runs_dir(self.runs)
         cli.require(bool(self.out), "--out is required: the folder the report goes into")
-        if self.carry is not None:
-            cli.require(os.path.isfile(self.carry), f"--carry={self.carry} is not a file")
-            try:
-                leaderboard.carry_darwin_rows([], self.carry)
-            except (OSError, ValueError) as e:
-                raise ValueError(f"--carry={self.carry}: {e}") from None
 
 
-def write_report(runs: str, out: str, gaits: bool = False, carry: str | None = None) -> str:
+def write_report(runs: str, out: str, gaits: bool = False) -> str:
     """Writes the figures, `report.md`, the leaderboard CSVs and `claims.csv` into `out`.
 
     Figures whose data are missing are skipped and listed in the report; malformed run
@@ -536,15 +565,13 @@ def write_report(runs: str, out: str, gaits: bool = False, carry: str | None = N
       out: The output folder (created if missing).
       gaits: Also render the hand-tuned and the best gait, by running
         `python -m cpg_suite.explore` (which picks its own rendering backend).
-      carry: An earlier `darwin_leaderboard.csv` (`leaderboard.carry_darwin_rows`) whose
-        rows are kept for configurations without runs under `runs` (None: none).
 
     Returns:
       One line saying how many figures were made and where they went.
 
     Raises:
-      ValueError: If `runs` is not a directory or `carry` is not a DARwIn leaderboard.
-      OSError: If `carry` cannot be read or an output cannot be written.
+      ValueError: If `runs` is not a directory.
+      OSError: If an output cannot be written.
       ImportError: Without matplotlib (`pip install 'cpg-suite[plots]'`).
       RuntimeError: If rendering the gaits fails.
     """
@@ -552,8 +579,6 @@ def write_report(runs: str, out: str, gaits: bool = False, carry: str | None = N
     found, skipped = leaderboard.find_runs(runs)
     rows = leaderboard.leaderboard_rows(found)
     darwin = leaderboard.darwin_rows(found)
-    if carry:
-        darwin = leaderboard.carry_darwin_rows(darwin, carry)
     claims = leaderboard.claim_rows(found, runs)
     _plt()
     os.makedirs(out, exist_ok=True)
@@ -592,19 +617,13 @@ def define_flags() -> None:
     flags.DEFINE_bool(
         "gaits", False, "Also render the hand-tuned and the best gait (needs EGL or OSMesa)."
     )
-    flags.DEFINE_string(
-        "carry",
-        None,
-        "An earlier darwin_leaderboard.csv whose rows are kept for configurations without "
-        "runs under --runs.",
-    )
 
 
 def main(argv: list[str]) -> None:
     del argv
     settings = cli.settings_from_flags(ReportSettings)
     check_matplotlib()
-    print(write_report(settings.runs, settings.out, settings.gaits, settings.carry))
+    print(write_report(settings.runs, settings.out, settings.gaits))
 
 
 if __name__ == "__main__":

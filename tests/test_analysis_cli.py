@@ -34,16 +34,6 @@ CASES = {
     "report-unknown-flag": ("report", [_RUNS, "--out={tmp}/o", "--bogus"], _UNKNOWN),
     "report-bad-out": ("report", [_RUNS, f"--out={BAD_OUT}"], _BAD_OUT),
     "report-missing-runs": ("report", [_MISSING, "--out={tmp}/o"], _NOT_DIR),
-    "report-missing-carry": (
-        "report",
-        [_RUNS, "--out={tmp}/o", "--carry={tmp}/nope.csv"],
-        ["--carry={tmp}/nope.csv is not a file"],
-    ),
-    "report-foreign-carry": (
-        "report",
-        [_RUNS, "--out={tmp}/o", "--carry={tmp}/other.csv"],
-        ["--carry={tmp}/other.csv: ", "is not a DARwIn leaderboard"],
-    ),
     "reproduce-unknown-flag": ("reproduce", ["--quick", "--out={tmp}/o", "--bogus"], _UNKNOWN),
     "reproduce-bad-out": ("reproduce", ["--quick", f"--out={BAD_OUT}"], _BAD_OUT),
     "reproduce-no-size": ("reproduce", ["--out={tmp}/o"], ["exactly one of --quick and --full"]),

@@ -19,7 +19,7 @@ METHODS = (
     "baselines.tabular",
 )
 # What `analysis` may import of the benchmark: command-line plumbing and statistics.
-ANALYSIS_MAY_IMPORT = ("cpg_suite.cli", "cpg_suite.protocol.stats")
+ANALYSIS_MAY_IMPORT = ("cpg_suite.cli", "cpg_suite.protocol.stats", "cpg_suite.protocol.aggregate")
 SIMULATION = ("mujoco", "dm_control", "dm_env", "gymnasium", "torch", "ray")
 
 

@@ -76,28 +76,45 @@ def test_published_data_is_complete():
     assert all(row["source"] for row in published.NUMBERS.values())
 
 
-def test_carried_rows_fill_in_configurations_without_runs(tmp_path):
-    fields = leaderboard.DARWIN_FIELDS
-    earlier = [dict.fromkeys(fields, "") for _ in range(3)]
-    for row, (config, score) in zip(earlier, (("a", 3.0), ("b", 2.0), ("c", 1.0))):
-        row.update(training_task="darwin_walk", method="cmaes", config=config, n_seeds=3)
-        row.update(test_score_m=score, budget_sim_steps=1.5e7)
-    path = str(tmp_path / "darwin_leaderboard.csv")
-    leaderboard.write_csv(path, earlier, fields)
-    # Runs at hand for "b" (now the best) and a new configuration; "a" and "c" are carried.
-    fresh = [
-        {"training_task": "darwin_walk", "method": "cmaes", "config": "b", "test_score_m": 4.0},
-        {"training_task": "darwin_walk", "method": "ppo", "config": "cpg", "test_score_m": 0.5},
+def _card(scores):
+    """A test card whose four tiers score `scores` (m) with no falls."""
+    tier = lambda s: {  # noqa: E731
+        "success_weighted_distance_m": {"mean": s, "ci95": [s, s]},
+        "fall_rate": {"value": 0.0},
+    }
+    tiers = dict(zip(leaderboard.TIERS, (tier(s) for s in scores)))
+    mean = sum(scores) / len(scores)
+    return {"tiers": tiers, "all": {**tier(mean), "quality": {}}}
+
+
+def _configuration(root, method, name, seeds, level, evaluations=2501):
+    for seed in range(seeds):
+        s = level + 0.01 * seed
+        summary = {"evaluations": evaluations, "sim_steps": 1, "test": _card([s, s, s, s])}
+        _run(root, method, "darwin_walk", f"{name}_seed{seed}", summary)
+
+
+def test_tracks_ranks_ties_and_provisional_rows(tmp_path):
+    runs = tmp_path / "runs"
+    _configuration(runs, "cmaes", "K50", 10, 5.0)  # clearly first
+    _configuration(runs, "cem", "K30", 10, 3.005)  # tied with the next
+    _configuration(runs, "cem", "K50", 10, 3.0)
+    _configuration(runs, "cem", "K10", 3, 9.0)  # best scores, too few seeds
+    _configuration(runs, "cmaes", "long", 5, 7.0, evaluations=10004)  # 4x the budget
+    found, _ = leaderboard.find_runs(str(runs))
+    rows = leaderboard.darwin_rows(found)
+    study = [r for r in rows if r["track"] == "study"]
+    assert [(r["config"], r["rank"], r["status"]) for r in study] == [
+        ("K50", 1, "ranked"),
+        ("K30", 2, "ranked"),
+        ("K50", 3, "ranked"),
+        ("K10", "", "provisional"),
     ]
-    merged = leaderboard.carry_darwin_rows(fresh, path)
-    assert [(r["config"], r["test_score_m"], r["rank"]) for r in merged] == [
-        ("b", 4.0, 1),
-        ("a", 3.0, 2),
-        ("c", 1.0, 3),
-        ("cpg", 0.5, 4),
-    ]
-    assert merged[1]["n_seeds"] == 3 and merged[1]["budget_sim_steps"] == 1.5e7
-    assert merged[1]["darwin_walk_score_m"] == ""  # empty cells stay empty
-    (tmp_path / "other.csv").write_text("rank,score\n1,2\n")
-    with pytest.raises(ValueError, match="not a DARwIn leaderboard"):
-        leaderboard.carry_darwin_rows(fresh, str(tmp_path / "other.csv"))
+    first, second = study[0], study[1]
+    assert first["method"] == "cmaes" and first["p_improvement_next"] == 1.0
+    assert first["tied_with_next"] is False and first["p_improvement_ci95_low"] > 0.5
+    assert second["tied_with_next"] is True  # 3.005-3.095 vs 3.00-3.09: not resolved
+    assert second["p_improvement_ci95_low"] <= 0.5 <= second["p_improvement_ci95_high"]
+    assert first["iqm_ci95_low"] <= first["iqm_m"] <= first["iqm_ci95_high"]
+    (long,) = [r for r in rows if r["track"] == "4x"]
+    assert long["rank"] == 1 and long["status"] == "ranked"

@@ -1,0 +1,273 @@
+r"""Shipped leaderboard artifacts: make them from run directories, and re-score them.
+
+  python -m cpg_suite.protocol.verify                      # every shipped run, bit for bit
+  python -m cpg_suite.protocol.verify --quick              # a sample, within a minute
+  python -m cpg_suite.protocol.verify --ship_from=runs     # copy finished runs in first
+
+A shipped run is a folder `<artifacts>/<method>/<task>/<run_name>/` holding what stands
+behind its leaderboard row (docs/protocol.md#shipped-artifacts):
+
+  * `config.json`: the run's settings, the command that re-runs it (output directory
+    written as `runs`) and the package versions it was made with;
+  * `summary.json`: its results and the selected gait's test score card;
+  * `selected_params.json`: the gait the run reports (amplitudes, or feedback parameters);
+  * `trials.csv`: the card's trials, one row per tier and test seed (`score.TRIAL_FIELDS`);
+  * `versions.json`: the versions it was made with and those it was scored with here.
+
+`verify` re-scores every shipped gait on the test protocol and compares the card and each
+trial with what is stored: the same bits on the same package versions
+(`results/protocol/constraints.txt` pins those of the reference results). Exit code 1 on
+any difference. `--quick` re-scores the first 5 test seeds of every tier for the first run
+of each configuration and compares those trials only.
+"""
+
+from __future__ import annotations
+
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+import csv
+import json
+import os
+import shutil
+from collections.abc import Callable
+
+import numpy as np
+from absl import flags
+
+from cpg_suite import cli, cpg, feedback, progress
+from cpg_suite.harness import runs
+from cpg_suite.protocol import score
+
+ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
+COPIED = ("config.json", "summary.json", "selected_params.json")
+QUICK_SEEDS = 5  # test seeds per tier in a quick verification
+_CARD_KEYS = ("tiers", "all", "scoring_sim_steps")
+
+
+def shipped_runs(root: str) -> list[str]:
+    """The run folders under `root` (those with a summary and a selected gait), sorted."""
+    found = []
+    for dirpath, _, names in os.walk(root):
+        if "summary.json" in names and "selected_params.json" in names:
+            found.append(dirpath)
+    return sorted(found)
+
+
+def _settings(config: dict, seeds: int | None = None, threads: int = 2) -> score.ScoreSettings:
+    """The score settings a run's card was made with (from its config.json)."""
+    s = config["settings"]
+    return score.ScoreSettings(
+        seeds=s["test_seeds"] if seeds is None else seeds,
+        steps=s["trial_steps"],
+        threads=threads,
+        controller=s.get("controller", "open_loop"),
+    )
+
+
+def _params(run_dir: str, controller: str) -> np.ndarray:
+    path = os.path.join(run_dir, "selected_params.json")
+    if controller == "feedback":
+        return feedback.load_params(path)
+    return cpg.load_amplitudes(path)
+
+
+def rescore(run_dir: str, seeds: int | None = None, threads: int = 2) -> tuple[dict, list[dict]]:
+    """Scores a run's selected gait again: `(card, trials)` as `score.score_gait_trials`.
+
+    Args:
+      run_dir: A run directory or a shipped run.
+      seeds: Test seeds per tier (None: as many as the run's card has).
+      threads: Evaluator threads (the results do not depend on it).
+
+    Raises:
+      OSError, KeyError, ValueError: On a run without a readable config or gait.
+    """
+    config = runs.read_json(os.path.join(run_dir, "config.json"))
+    settings = _settings(config, seeds, threads)
+    return score.score_gait_trials(_params(run_dir, settings.controller), settings)
+
+
+def _jsonable(value):
+    """`value` as it reads back from JSON (so that a fresh card compares with a stored one)."""
+    return json.loads(json.dumps(runs.to_jsonable(value)))
+
+
+def write_trials(path: str, trials: list[dict]) -> None:
+    """Writes the trial table; floats with all their digits (they read back exactly)."""
+    rows = [{k: repr(v) if isinstance(v, float) else v for k, v in t.items()} for t in trials]
+    runs.write_rows_csv(path, rows)
+
+
+def read_trials(path: str) -> list[dict]:
+    """The trial table as `score.score_gait_trials` returns it."""
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    return [
+        {
+            "tier": r["tier"],
+            "seed": int(r["seed"]),
+            "distance_m": float(r["distance_m"]),
+            "fell": r["fell"] == "True",
+            "fall_step": int(r["fall_step"]),
+        }
+        for r in rows
+    ]
+
+
+def _relocated(config: dict) -> dict:
+    """The config with the run's output directory written as `runs` (no machine's path)."""
+    command = config.get("command") or ""
+    words = [
+        "--output_dir=runs" if w.startswith("--output_dir=") else w for w in command.split(" ")
+    ]
+    return {**config, "command": " ".join(words)}
+
+
+def ship(run_dir: str, dest: str, threads: int = 2) -> str:
+    """Copies a finished run's artifacts into `dest` and adds its trials and versions.
+
+    The gait is scored again; its card must equal the run's own (else nothing is written).
+
+    Args:
+      run_dir: A finished run directory (summary with a test card, selected gait).
+      dest: The shipped run's folder (created).
+      threads: Evaluator threads.
+
+    Returns:
+      `dest`.
+
+    Raises:
+      ValueError: If the run has no test card, or the fresh card differs from it.
+    """
+    summary = runs.read_json(os.path.join(run_dir, "summary.json"))
+    if "test" not in summary:
+        raise ValueError(f"{run_dir} has no test score card")
+    card, trials = rescore(run_dir, threads=threads)
+    if _jsonable({k: card[k] for k in _CARD_KEYS}) != summary["test"]:
+        raise ValueError(f"{run_dir}: scored again, its card differs from the run's")
+    config = runs.read_json(os.path.join(run_dir, "config.json"))
+    os.makedirs(dest, exist_ok=True)
+    for name in COPIED[1:]:
+        shutil.copyfile(os.path.join(run_dir, name), os.path.join(dest, name))
+    runs.write_json(os.path.join(dest, "config.json"), _relocated(config))
+    write_trials(os.path.join(dest, "trials.csv"), trials)
+    versions = {"made_with": config.get("environment"), "scored_with": runs.environment_record()}
+    runs.write_json(os.path.join(dest, "versions.json"), versions)
+    return dest
+
+
+def ship_all(root: str, artifacts: str, log: Callable[[str], None] = progress.write) -> int:
+    """Ships every finished DARwIn-OP run under `root` into `artifacts` (same layout),
+    except those shipped before.
+
+    Returns:
+      How many runs were shipped.
+    """
+    shipped = 0
+    for run_dir in shipped_runs(root):
+        summary = runs.read_json(os.path.join(run_dir, "summary.json"))
+        if "test" not in summary:
+            log(f"skipped {run_dir}: no test score card")
+            continue
+        dest = os.path.join(artifacts, os.path.relpath(run_dir, root))
+        if os.path.exists(os.path.join(dest, "trials.csv")):
+            continue  # shipped before (`verify` checks it)
+        ship(run_dir, dest)
+        log(f"shipped {dest}")
+        shipped += 1
+    return shipped
+
+
+def verify_run(run_dir: str, quick: bool = False, threads: int = 2) -> list[str]:
+    """Re-scores one shipped run; the differences from what it stores (empty: none).
+
+    Args:
+      run_dir: A shipped run.
+      quick: Only the first `QUICK_SEEDS` test seeds per tier, compared trial by trial.
+      threads: Evaluator threads.
+    """
+    stored_trials = read_trials(os.path.join(run_dir, "trials.csv"))
+    stored_seeds = len({t["seed"] for t in stored_trials})
+    card, trials = rescore(run_dir, min(QUICK_SEEDS, stored_seeds) if quick else None, threads)
+    if quick:
+        wanted = {(t["tier"], t["seed"]) for t in trials}
+        stored_trials = [t for t in stored_trials if (t["tier"], t["seed"]) in wanted]
+    problems = []
+    if trials != stored_trials:
+        differ = sum(a != b for a, b in zip(trials, stored_trials))
+        problems.append(f"{differ or 'the number of'} trials differ from trials.csv")
+    if not quick:
+        summary = runs.read_json(os.path.join(run_dir, "summary.json"))
+        if _jsonable({k: card[k] for k in _CARD_KEYS}) != summary["test"]:
+            problems.append("the score card differs from summary.json")
+    return problems
+
+
+def _quick_sample(shipped: list[str]) -> list[str]:
+    """The first run of each configuration (its folder name less the seed)."""
+    chosen, seen = [], set()
+    for run_dir in shipped:
+        config = os.path.join(os.path.dirname(run_dir), os.path.basename(run_dir).split("seed")[0])
+        if config not in seen:
+            seen.add(config)
+            chosen.append(run_dir)
+    return chosen
+
+
+def verify(
+    artifacts: str, quick: bool = False, threads: int = 2, log: Callable[[str], None] = print
+) -> int:
+    """Re-scores the shipped runs under `artifacts`.
+
+    Returns:
+      The number of runs that differ (0: every card and trial reproduced bit for bit).
+
+    Raises:
+      ValueError: If `artifacts` holds no shipped run.
+    """
+    shipped = shipped_runs(artifacts)
+    if not shipped:
+        raise ValueError(f"no shipped runs under {artifacts}")
+    chosen = _quick_sample(shipped) if quick else shipped
+    failed = 0
+    for run_dir in chosen:
+        problems = verify_run(run_dir, quick, threads)
+        failed += bool(problems)
+        log(f"{'DIFF' if problems else 'ok  '} {run_dir}" + "".join(f"; {p}" for p in problems))
+    log(f"{len(chosen) - failed} of {len(chosen)} shipped runs reproduced bit for bit")
+    return failed
+
+
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    flags.DEFINE_string("artifacts", ARTIFACTS, "Folder of shipped runs.")
+    flags.DEFINE_bool("quick", False, f"Re-score {QUICK_SEEDS} seeds per tier of one run each.")
+    flags.DEFINE_integer("threads", 2, "Evaluator threads (results do not depend on it).")
+    flags.DEFINE_string("ship_from", None, "First ship the finished runs under this folder.")
+
+
+def main(argv: list[str]) -> None:
+    """Ships (with --ship_from) and verifies; exit code 1 if any run differs."""
+    del argv
+    values = flags.FLAGS
+    cli.check(values.threads >= 1, f"--threads must be ≥ 1, got {values.threads}")
+    if values.ship_from is not None:
+        cli.check(
+            os.path.isdir(values.ship_from), f"--ship_from={values.ship_from} is not a directory"
+        )
+        ship_all(values.ship_from, values.artifacts)
+    cli.check(os.path.isdir(values.artifacts), f"--artifacts={values.artifacts} is not a directory")
+    try:
+        failed = verify(values.artifacts, values.quick, values.threads)
+    except ValueError as e:
+        raise cli.UsageError(str(e)) from None
+    if failed:
+        raise SystemExit(1)
+
+
+if __name__ == "__main__":
+    define_flags()
+    cli.run(main)

@@ -1,0 +1,88 @@
+"""Shipped artifacts: a run ships with its trials, and `verify` reproduces (or flags) it."""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from baselines import cem
+from cpg_suite import protocol
+from cpg_suite.harness import runs
+from cpg_suite.protocol import verify
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+@pytest.fixture(scope="module")
+def shipped(tmp_path_factory):
+    """A small real CEM run, shipped."""
+    root = tmp_path_factory.mktemp("verify")
+    settings = cem.CEMSettings(
+        population=4, rounds=1, trial_steps=120, validation_seeds=2, test_seeds=3
+    )
+    options = runs.RunOptions(output_dir=str(root / "runs"), threads=2)
+    run_dir, _ = cem.run_cem(settings, options, log=lambda line: None)
+    dest = verify.ship(run_dir, str(root / "shipped" / "cem" / "darwin_walk" / "run_seed0"))
+    return run_dir, dest
+
+
+def test_a_shipped_run_has_its_trials_versions_and_no_machine_path(shipped):
+    run_dir, dest = shipped
+    assert sorted(os.listdir(dest)) == [
+        "config.json",
+        "selected_params.json",
+        "summary.json",
+        "trials.csv",
+        "versions.json",
+    ]
+    trials = verify.read_trials(os.path.join(dest, "trials.csv"))
+    assert len(trials) == 4 * 3 and {t["tier"] for t in trials} == set(protocol.TIERS)
+    assert "--output_dir=runs" in runs.read_json(os.path.join(dest, "config.json"))["command"]
+    assert set(runs.read_json(os.path.join(dest, "versions.json"))) == {"made_with", "scored_with"}
+
+
+def test_verify_reproduces_a_shipped_run_bit_for_bit(shipped):
+    _, dest = shipped
+    assert verify.verify_run(dest) == []
+    assert verify.verify_run(dest, quick=True) == []
+
+
+def test_verify_flags_a_changed_trial_and_a_changed_card(shipped, tmp_path):
+    _, dest = shipped
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for name in os.listdir(dest):
+        (copy / name).write_bytes(open(os.path.join(dest, name), "rb").read())
+    with open(copy / "trials.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    rows[0]["distance_m"] = repr(float(rows[0]["distance_m"]) + 1e-12)
+    runs.write_rows_csv(str(copy / "trials.csv"), rows)
+    assert verify.verify_run(str(copy)) == ["1 trials differ from trials.csv"]
+    summary = json.loads((copy / "summary.json").read_text())
+    summary["test"]["all"]["fall_rate"]["value"] = 0.5
+    (copy / "summary.json").write_text(json.dumps(summary))
+    assert "the score card differs from summary.json" in verify.verify_run(str(copy))
+    logged = []
+    assert verify.verify(str(tmp_path), log=logged.append) == 1
+    assert logged[-1] == "0 of 1 shipped runs reproduced bit for bit"
+
+
+def test_the_reference_artifacts_reproduce_quickly():
+    """The shipped reference results, re-scored on a sample (`verify --quick`)."""
+    artifacts = os.path.join(ROOT, verify.ARTIFACTS)
+    assert verify.shipped_runs(artifacts), "results/protocol/runs ships no runs"
+    assert verify.verify(artifacts, quick=True, log=lambda line: None) == 0
+
+
+def test_cli_without_artifacts_is_one_line(tmp_path):
+    out = subprocess.run(
+        [sys.executable, "-m", "cpg_suite.protocol.verify", f"--artifacts={tmp_path}/none"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 2
+    assert out.stderr.splitlines() == [f"error: --artifacts={tmp_path}/none is not a directory"]
