@@ -3,7 +3,7 @@
 import os
 import re
 
-from setuptools import setup
+from setuptools import find_packages, setup
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -30,7 +30,9 @@ setup(
     long_description_content_type="text/markdown",
     license="Apache-2.0",
     python_requires=">=3.10",
-    packages=["cpg_suite", "baselines", "baselines.tabular", "analysis"],
+    packages=find_packages(
+        include=["cpg_suite", "cpg_suite.*", "baselines", "baselines.*", "analysis"]
+    ),
     package_data={
         "cpg_suite": ["xml/*.xml", "xml/common/*.xml", "data/*.json", "data/*.md"],
         "analysis": ["*.csv"],
