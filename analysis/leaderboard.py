@@ -236,29 +236,27 @@ def _mean(values) -> float | str:
     return float(np.mean(values)) if values else ""
 
 
-def _test_score(tests: list[dict], tier: str | None = None) -> tuple[float, float, float]:
-    """Mean test score over seeds (all tiers, or one); its interval: the run's bootstrap
-    interval for one seed, the stratified bootstrap interval over the runs for more."""
-    cards = [t["all"] if tier is None else t["tiers"][tier] for t in tests]
-    scores = [c["success_weighted_distance_m"]["mean"] for c in cards]
-    if len(scores) == 1:
-        low, high = cards[0]["success_weighted_distance_m"]["ci95"]
-        return scores[0], low, high
-    if tier is None:
-        low, high = aggregate.interval(score_matrix(tests), aggregate.mean)
-        return float(np.mean(score_matrix(tests))), low, high
-    low, high = aggregate.interval(np.array(scores)[:, None], aggregate.mean)
-    return float(np.mean(scores)), low, high
+def _test_score(tests: list[dict], tier: str | None = None) -> dict:
+    """Mean test score over seeds (all common tiers, or one) with its interval — the run's
+    bootstrap interval for one seed, the stratified bootstrap interval over the runs for
+    more — and, for more, the IQM with its interval (`aggregate.summary`)."""
+    if len(tests) == 1:
+        card = tests[0]["all"] if tier is None else tests[0]["tiers"][tier]
+        swd = card["success_weighted_distance_m"]
+        return {"mean": swd["mean"], "mean_ci95": swd["ci95"]}
+    tiers = (tier,) if tier else tuple(t for t in TIERS if all(t in c["tiers"] for c in tests))
+    return aggregate.summary(score_matrix(tests, tiers))
 
 
-def score_matrix(tests: list[dict]) -> np.ndarray:
+def score_matrix(tests: list[dict], tiers: tuple[str, ...] = TIERS) -> np.ndarray:
     """(runs × tiers) success-weighted distances of a configuration's test cards.
 
     Args:
-      tests: The runs' test cards (`summary["test"]`), each with all four tiers.
+      tests: The runs' test cards (`summary["test"]`), each with `tiers`.
+      tiers: The tiers (columns).
     """
     return np.array(
-        [[t["tiers"][tier]["success_weighted_distance_m"]["mean"] for tier in TIERS] for t in tests]
+        [[t["tiers"][tier]["success_weighted_distance_m"]["mean"] for tier in tiers] for t in tests]
     )
 
 
@@ -280,7 +278,7 @@ def budget_track(summaries: list[dict]) -> str:
 def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
     task, method, config = key
     tests = [s["test"] for s in summaries]
-    score, low, high = _test_score(tests)
+    overall = _test_score(tests)
     track = budget_track(summaries)
     ranked = (
         bool(track)
@@ -295,9 +293,9 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
         "method": method,
         "config": config,
         "n_seeds": len(summaries),
-        "test_score_m": score,
-        "test_ci95_low": low,
-        "test_ci95_high": high,
+        "test_score_m": overall["mean"],
+        "test_ci95_low": overall["mean_ci95"][0],
+        "test_ci95_high": overall["mean_ci95"][1],
         "test_fall_rate": _mean([t["all"]["fall_rate"]["value"] for t in tests]),
         "budget_trials": _mean([s.get("evaluations") for s in summaries]),
         "budget_sim_steps": _mean(
@@ -306,12 +304,12 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
         "in_sample_best_m": _mean([s.get("best_distance_m") for s in summaries]),
     }
     if ranked:
-        stats = aggregate.summary(row["_scores"])
-        row["iqm_m"] = stats["iqm"]
-        row["iqm_ci95_low"], row["iqm_ci95_high"] = stats["iqm_ci95"]
+        row["iqm_m"] = overall["iqm"]
+        row["iqm_ci95_low"], row["iqm_ci95_high"] = overall["iqm_ci95"]
     for tier in TIERS:
         if all(tier in t["tiers"] for t in tests):
-            mean, low, high = _test_score(tests, tier)
+            score = _test_score(tests, tier)
+            mean, (low, high) = score["mean"], score["mean_ci95"]
             falls = _mean([t["tiers"][tier]["fall_rate"]["value"] for t in tests])
         else:
             mean = low = high = falls = ""

@@ -410,16 +410,6 @@ def _best_gait_file(found: list[dict]) -> tuple[str | None, float]:
     return best, best_distance
 
 
-def _renderer_env() -> dict[str, str]:
-    """This process's environment for the rendering child, less `MUJOCO_GL=disable` (which
-    `cli.without_rendering` sets in this program), so the child chooses a backend that
-    renders (`cli.choose_renderer`)."""
-    env = dict(os.environ)
-    if env.get("MUJOCO_GL") == "disable":
-        del env["MUJOCO_GL"]
-    return env
-
-
 def gaits(found: list[dict], out: str) -> str | None:
     """Filmstrips of the hand-tuned and the best gait, one above the other, and videos.
 
@@ -451,7 +441,7 @@ def gaits(found: list[dict], out: str) -> str | None:
             "--strip_start=8.0",
         ]
         done = subprocess.run(
-            command, capture_output=True, text=True, check=False, env=_renderer_env()
+            command, capture_output=True, text=True, check=False, env=cli.rendering_child_env()
         )
         if done.returncode != 0:
             raise RuntimeError(f"rendering {params} failed: {done.stderr.strip()[-500:]}")

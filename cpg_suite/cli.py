@@ -51,6 +51,15 @@ def without_rendering() -> None:
     os.environ.setdefault("MUJOCO_GL", _NO_RENDERER)
 
 
+def rendering_child_env() -> dict[str, str]:
+    """This process's environment for a child program that renders: without the
+    `MUJOCO_GL` that `without_rendering` set here, so the child chooses its own backend."""
+    env = dict(os.environ)
+    if env.get("MUJOCO_GL") == _NO_RENDERER:
+        del env["MUJOCO_GL"]
+    return env
+
+
 def choose_renderer() -> None:
     """Chooses a rendering backend that works, for a program that renders.
 

@@ -16,25 +16,13 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
     cli.without_rendering()
 
-import os
-
 import numpy as np
 from absl import flags
 
 from cpg_suite import cli, cpg, darwin
+from cpg_suite.evaluation import gait
 
 COLUMNS = tuple(f"{side}_{joint}" for side in ("left", "right") for joint in cpg.JOINTS_PER_LEG)
-
-
-def gait_amplitudes(params: str) -> np.ndarray:
-    """The 11 amplitudes of a preset name or a JSON file.
-
-    Raises:
-      ValueError: If `params` is neither a preset nor a valid amplitudes file.
-    """
-    if os.path.isfile(params):
-        return cpg.load_amplitudes(params)
-    return cpg.amplitudes_from(params)
 
 
 def anatomical_targets(amplitudes: np.ndarray, steps: int) -> tuple[np.ndarray, np.ndarray]:
@@ -74,9 +62,9 @@ def main(argv: list[str]) -> None:
     values = flags.FLAGS
     cli.check(values.steps >= 1, f"--steps must be ≥ 1, got {values.steps}")
     try:
-        amplitudes = gait_amplitudes(values.params)
-    except (ValueError, OSError) as e:
-        raise cli.UsageError(f"--params: {e}") from None
+        amplitudes = gait.parse_params(values.params)
+    except ValueError as e:
+        raise cli.UsageError(str(e)) from None
     write_csv(values.out, *anatomical_targets(amplitudes, values.steps))
     print(values.out)
 

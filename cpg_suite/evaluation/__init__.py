@@ -74,8 +74,7 @@ def open_evaluator(
     # The implementations load MuJoCo and dm_control: imported here, so that a command of
     # this package (`python -m cpg_suite.evaluation.evaluate`) can choose its rendering
     # backend before they load.
-    from cpg_suite.evaluation.closed_loop import FeedbackEvaluator
-    from cpg_suite.evaluation.open_loop import BatchEvaluator
+    from cpg_suite.evaluation.local import local_evaluator
     from cpg_suite.evaluation.ray_backend import RayEvaluator
 
     if controller not in CONTROLLERS:
@@ -86,6 +85,4 @@ def open_evaluator(
         )
     if backend != "local":
         raise ValueError(f"unknown backend {backend!r}; valid: {', '.join(BACKENDS)}")
-    if controller == "feedback":
-        return FeedbackEvaluator(task, steps, threads, **evaluator_kwargs)
-    return BatchEvaluator(task, steps, threads, **evaluator_kwargs)
+    return local_evaluator(controller, task, steps, threads, **evaluator_kwargs)

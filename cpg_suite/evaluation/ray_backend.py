@@ -28,10 +28,9 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from cpg_suite import feedback
 from cpg_suite.cli import UsageError
-from cpg_suite.evaluation.closed_loop import FeedbackEvaluator
-from cpg_suite.evaluation.open_loop import BatchEvaluator, BatchResult, check_amplitudes
+from cpg_suite.evaluation.local import check_params, local_evaluator
+from cpg_suite.evaluation.open_loop import BatchResult
 
 
 class ClusterUnreachable(UsageError, ConnectionError):
@@ -115,22 +114,6 @@ def disconnect() -> None:
     ray_module().shutdown()
 
 
-def _local_evaluator(controller: str, *args, **kwargs):
-    """The local batched evaluator of `controller` (open-loop amplitudes or feedback)."""
-    if controller == "feedback":
-        return FeedbackEvaluator(*args, **kwargs)
-    return BatchEvaluator(*args, **kwargs)
-
-
-def _check_params(controller: str, params) -> np.ndarray:
-    """(K, n) float64 parameter vectors of `controller`, checked as its evaluator does."""
-    if controller == "feedback":
-        p = np.atleast_2d(np.asarray(params, dtype=np.float64))
-        feedback.split(p)  # raises ValueError on a wrong shape
-        return p
-    return check_amplitudes(params)
-
-
 class _Worker:
     """One Ray actor: local batched evaluators, one per evaluator specification, each built
     on the first call that needs it and kept for the actor's life."""
@@ -144,7 +127,7 @@ class _Worker:
     def evaluate(self, key: str, spec: tuple, amplitudes, seeds: list, quality: bool):
         if key not in self._evaluators:
             controller, args, kwargs = spec
-            self._evaluators[key] = _local_evaluator(controller, *args, **kwargs)
+            self._evaluators[key] = local_evaluator(controller, *args, **kwargs)
         return self._evaluators[key].evaluate(amplitudes, seeds, quality)
 
 
@@ -191,7 +174,7 @@ class RayEvaluator:
         """
         if (workers is not None and workers < 1) or (chunk is not None and chunk < 1):
             raise ValueError(f"workers and chunk must be ≥ 1, got {workers} and {chunk}")
-        _local_evaluator(controller, task, steps, 1, **evaluator_kwargs).close()  # validates
+        local_evaluator(controller, task, steps, 1, **evaluator_kwargs).close()  # validates
         self._controller = controller
         ray = self._ray = ray_module()
         self._owns_ray = connect(address)
@@ -207,7 +190,7 @@ class RayEvaluator:
         """As `BatchEvaluator.evaluate`. The trials are split along the longer of the two
         axes (candidates, or seeds when there are fewer candidates than seeds, as when one
         gait is scored), `chunk` at a time, and the chunks go to the actors in turn."""
-        amps = _check_params(self._controller, amplitudes)
+        amps = check_params(self._controller, amplitudes)
         seeds = [int(s) for s in np.atleast_1d(seeds)]
         axis = 0 if len(amps) >= len(seeds) else 1
         n = (len(amps), len(seeds))[axis]

@@ -81,17 +81,26 @@ class RunState:
         self.top = kept
 
 
-def _read_checkpoint(path: str, identity: dict) -> dict:
-    try:
-        checkpoint = runs.read_json(path)
-    except (OSError, ValueError) as e:
-        raise CheckpointError(f"cannot read checkpoint {path}: {e}") from None
+def check_identity(checkpoint, path: str, identity: dict) -> dict:
+    """`checkpoint` if it is a run state of the configuration `identity` (any run kind).
+
+    Raises:
+      CheckpointError: If it belongs to another configuration or is no run state.
+    """
     if not isinstance(checkpoint, dict) or checkpoint.get("identity") != identity:
         raise CheckpointError(
             f"checkpoint {path} belongs to another configuration; use another --run_name "
             "or --overwrite"
         )
     return checkpoint
+
+
+def _read_checkpoint(path: str, identity: dict) -> dict:
+    try:
+        checkpoint = runs.read_json(path)
+    except (OSError, ValueError) as e:
+        raise CheckpointError(f"cannot read checkpoint {path}: {e}") from None
+    return check_identity(checkpoint, path, identity)
 
 
 def restore(path: str, identity: dict, optimizer: Optimizer, resume: bool) -> RunState:

@@ -37,7 +37,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from cpg_suite import progress, protocol
 from cpg_suite.harness import runs, sb3
-from cpg_suite.harness.checkpoints import CheckpointError
+from cpg_suite.harness.checkpoints import CheckpointError, check_identity
 from cpg_suite.protocol import score
 
 PROGRESS_FIELDS = [
@@ -276,12 +276,7 @@ def _read_checkpoint(path: str, identity: dict) -> dict:
             checkpoint = pickle.load(f)
     except (OSError, pickle.UnpicklingError, EOFError, AttributeError) as e:
         raise CheckpointError(f"cannot read checkpoint {path}: {e}") from None
-    if not isinstance(checkpoint, dict) or checkpoint.get("identity") != identity:
-        raise CheckpointError(
-            f"checkpoint {path} belongs to another configuration; use another --run_name "
-            "or --overwrite"
-        )
-    return checkpoint
+    return check_identity(checkpoint, path, identity)
 
 
 def _start(

@@ -42,7 +42,7 @@ from cpg_suite.harness import runs
 from cpg_suite.protocol import score
 
 ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
-COPIED = ("config.json", "summary.json", "selected_params.json")
+COPIED = ("summary.json", "selected_params.json")  # as they are; config.json relocated
 QUICK_SEEDS = 5  # test seeds per tier in a quick verification
 _CARD_KEYS = ("tiers", "all", "scoring_sim_steps")
 
@@ -150,7 +150,7 @@ def ship(run_dir: str, dest: str, threads: int = 2) -> str:
         raise ValueError(f"{run_dir}: scored again, its card differs from the run's")
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     os.makedirs(dest, exist_ok=True)
-    for name in COPIED[1:]:
+    for name in COPIED:
         shutil.copyfile(os.path.join(run_dir, name), os.path.join(dest, name))
     runs.write_json(os.path.join(dest, "config.json"), _relocated(config))
     write_trials(os.path.join(dest, "trials.csv"), trials)
