@@ -11,7 +11,8 @@ but the servos moves the robot. The free root joint is kept (the task's real phy
 reaction of a moving leg turns the floating body, which shifts a joint's peak speed a little;
 welding the root instead (replacing the free joint) moves the peaks by at most 1.2 %.
 One leg servo at a time is commanded; every other servo holds its joint where it started.
-The stall current (1.4 A at 12 V) has no counterpart in the model, which has no electrics.
+The stall current (1.4 A at 12 V) has no counterpart in the physics, which has no electrics;
+the score card derives the servos' electrical power from it (`evaluation.quality`).
 """
 
 import math

@@ -52,10 +52,7 @@ def test_verify_reproduces_a_shipped_run_bit_for_bit(shipped):
 
 def test_verify_flags_a_changed_trial_and_a_changed_card(shipped, tmp_path):
     _, dest = shipped
-    copy = tmp_path / "copy"
-    copy.mkdir()
-    for name in os.listdir(dest):
-        (copy / name).write_bytes(open(os.path.join(dest, name), "rb").read())
+    copy = _copy(dest, tmp_path / "copy")
     with open(copy / "trials.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     rows[0]["distance_m"] = repr(float(rows[0]["distance_m"]) + 1e-12)
@@ -68,6 +65,32 @@ def test_verify_flags_a_changed_trial_and_a_changed_card(shipped, tmp_path):
     logged = []
     assert verify.verify(str(tmp_path), log=logged.append) == 1
     assert logged[-1] == "0 of 1 shipped runs reproduced bit for bit"
+
+
+def _copy(dest, to):
+    to.mkdir()
+    for name in os.listdir(dest):
+        (to / name).write_bytes(open(os.path.join(dest, name), "rb").read())
+    return to
+
+
+def test_update_card_restores_a_card_only_while_the_trials_hold(shipped, tmp_path):
+    _, dest = shipped
+    copy = _copy(dest, tmp_path / "copy")
+    summary = json.loads((copy / "summary.json").read_text())
+    del summary["test"]["all"]["quality"]["energy_per_m"]  # a card older than a measure
+    (copy / "summary.json").write_text(json.dumps(summary))
+    assert verify.verify_run(str(copy)) == ["the score card differs from summary.json"]
+    verify.update_card(str(copy))
+    assert verify.verify_run(str(copy)) == []
+    with open(copy / "trials.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    rows[-1]["fell"] = str(rows[-1]["fell"] != "True")
+    runs.write_rows_csv(str(copy / "trials.csv"), rows)
+    stored = (copy / "summary.json").read_text()
+    with pytest.raises(ValueError, match="its trials changed"):
+        verify.update_card(str(copy))
+    assert (copy / "summary.json").read_text() == stored
 
 
 def test_the_reference_artifacts_reproduce_quickly():

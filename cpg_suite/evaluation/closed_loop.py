@@ -179,7 +179,7 @@ class FeedbackEvaluator:
             self._step_trial(trial, ctrl, t, quality)
 
     def _step_trial(self, trial: _Trial, ctrl: np.ndarray, t: int, quality: bool) -> None:
-        """One control step as `control.Environment.step` takes it (`score._step_policy`)."""
+        """One control step as `control.Environment.step` takes it (`score.step_policy`)."""
         model, data = trial.model, trial.data
         data.ctrl[:] = ctrl
         if trial.pushes is not None:

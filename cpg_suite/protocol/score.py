@@ -267,7 +267,7 @@ def policy_trial(
     physics = env.physics
     start = physics.torso_position()
     n_sub = int(round(env.control_timestep() / physics.model.opt.timestep))
-    last, fall_step, records = _step_policy(policy, env.task, physics, observation, steps, n_sub)
+    last, fall_step, records = step_policy(policy, env.task, physics, observation, steps, n_sub)
     last = start if last is None else last
     distance = float(last[0] - start[0])
     return {
@@ -280,9 +280,22 @@ def policy_trial(
     }
 
 
-def _step_policy(policy, task, physics, observation, steps: int, n_sub: int):
-    """The control loop: returns the torso position after the last valid control step
-    (None if none), the 1-based fall step (0: none) and the per-physics-step records."""
+def step_policy(policy, task, physics, observation, steps: int, n_sub: int, record=None):
+    """The control loop of `policy_trial`.
+
+    Args:
+      policy, task, physics, observation: The policy, the environment's task and physics
+        after its reset, and the first observation.
+      steps: Control steps.
+      n_sub: Physics steps per control step.
+      record: Called with the physics after each physics step; its values are returned
+        (default: the gait-quality inputs).
+
+    Returns:
+      The torso position after the last valid control step (None if none), the 1-based
+      fall step (0: none) and the per-physics-step records.
+    """
+    record = record or _record
     model, data = physics.model.ptr, physics.data.ptr
     last, records = None, []
     for t in range(steps):
@@ -290,7 +303,7 @@ def _step_policy(policy, task, physics, observation, steps: int, n_sub: int):
         clear_invalid_state_warnings(data)
         for _ in range(n_sub):
             mujoco.mj_step(model, data)
-            records.append(_record(physics))
+            records.append(record(physics))
         if invalid_state(data):
             return last, t + 1, records
         mujoco.mj_step1(model, data)  # positions and velocities for the observation

@@ -3,6 +3,7 @@ r"""Shipped leaderboard artifacts: make them from run directories, and re-score 
   python -m cpg_suite.protocol.verify                      # every shipped run, bit for bit
   python -m cpg_suite.protocol.verify --quick              # a sample, within a minute
   python -m cpg_suite.protocol.verify --ship_from=runs     # copy finished runs in first
+  python -m cpg_suite.protocol.verify --update_cards       # after the card gains a measure
 
 A shipped run is a folder `<artifacts>/<method>/<task>/<run_name>/` holding what stands
 behind its leaderboard row (docs/protocol.md#shipped-artifacts):
@@ -19,6 +20,10 @@ trial with what is stored: the same bits on the same package versions
 (`results/protocol/constraints.txt` pins those of the reference results). Exit code 1 on
 any difference. `--quick` re-scores the first 5 test seeds of every tier for the first run
 of each configuration and compares those trials only.
+
+When the score card gains a measure, `--update_cards` re-scores every shipped run, checks
+that every trial is unchanged (the gait does what it did), and only then rewrites the
+card in `summary.json` and records the versions it was scored with.
 """
 
 from __future__ import annotations
@@ -181,6 +186,29 @@ def ship_all(root: str, artifacts: str, log: Callable[[str], None] = progress.wr
     return shipped
 
 
+def update_card(run_dir: str, threads: int = 2) -> None:
+    """Re-scores a shipped run and stores the new card, if its trials are unchanged.
+
+    Args:
+      run_dir: A shipped run.
+      threads: Evaluator threads.
+
+    Raises:
+      ValueError: If a trial differs from `trials.csv` (nothing is written then).
+    """
+    card, trials = rescore(run_dir, threads=threads)
+    if trials != read_trials(os.path.join(run_dir, "trials.csv")):
+        raise ValueError(f"{run_dir}: its trials changed; ship the run again instead")
+    summary_path = os.path.join(run_dir, "summary.json")
+    summary = runs.read_json(summary_path)
+    summary["test"] = _jsonable({k: card[k] for k in _CARD_KEYS})
+    runs.write_json(summary_path, summary)
+    versions_path = os.path.join(run_dir, "versions.json")
+    versions = runs.read_json(versions_path)
+    versions["scored_with"] = runs.environment_record()
+    runs.write_json(versions_path, versions)
+
+
 def verify_run(run_dir: str, quick: bool = False, threads: int = 2) -> list[str]:
     """Re-scores one shipped run; the differences from what it stores (empty: none).
 
@@ -247,6 +275,9 @@ def define_flags() -> None:
     flags.DEFINE_bool("quick", False, f"Re-score {QUICK_SEEDS} seeds per tier of one run each.")
     flags.DEFINE_integer("threads", 2, "Evaluator threads (results do not depend on it).")
     flags.DEFINE_string("ship_from", None, "First ship the finished runs under this folder.")
+    flags.DEFINE_bool(
+        "update_cards", False, "Re-score every shipped run and store its card (trials unchanged)."
+    )
 
 
 def main(argv: list[str]) -> None:
@@ -260,6 +291,11 @@ def main(argv: list[str]) -> None:
         )
         ship_all(values.ship_from, values.artifacts)
     cli.check(os.path.isdir(values.artifacts), f"--artifacts={values.artifacts} is not a directory")
+    if values.update_cards:
+        for run_dir in shipped_runs(values.artifacts):
+            update_card(run_dir, values.threads)
+            progress.write(f"card updated: {run_dir}")
+        return  # the cards were just made by the same scoring: run verify on its own
     try:
         failed = verify(values.artifacts, values.quick, values.threads)
     except ValueError as e:
