@@ -394,7 +394,8 @@ def format_card(card: dict) -> str:
     """The card as a fixed-width table, one line per tier and one for all tiers."""
     lines = [
         f"{'tier':<24} {'success-weighted m [95% CI]':>30} {'falls':>7} "
-        f"{'median m':>9} {'IQM m':>7} {'CoT':>6} {'slip/m':>7} {'sat.':>6} {'peak rad/s':>10}"
+        f"{'median m':>9} {'IQM m':>7} {'CoT':>6} {'slip/m':>7} {'sat.':>6} {'peak rad/s':>10} "
+        f"{'over 5.76':>9} {'W':>6} {'J/m':>6}"
     ]
     for name, row in [*card["tiers"].items(), ("all", card["all"])]:
         swd, q = row["success_weighted_distance_m"], row["quality"]
@@ -403,7 +404,9 @@ def format_card(card: dict) -> str:
             f"{'':>5} {row['fall_rate']['value']:>7.1%} {row['distance_m']['median']:>9.3f} "
             f"{row['distance_m']['iqm']:>7.3f} {_fmt(q['cost_of_transport']):>6} "
             f"{_fmt(q['slip_per_m']):>7} {_fmt(q['torque_limit_share'], '.1%'):>6} "
-            f"{_fmt(q['peak_joint_speed'], '.2f'):>10}"
+            f"{_fmt(q['peak_joint_speed'], '.2f'):>10} "
+            f"{_fmt(q['over_speed_share'], '.1%'):>9} {_fmt(q['electrical_power_w'], '.1f'):>6} "
+            f"{_fmt(q['energy_per_m'], '.0f'):>6}"
         )
     return "\n".join(lines)
 
