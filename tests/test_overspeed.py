@@ -19,19 +19,23 @@ def hand_tuned():
 
 
 def test_the_sources_add_up_to_the_explicit_acceleration(hand_tuned):
-    """With the explicit Euler integrator, MuJoCo's q̈ is M⁻¹ Σ f: the split is exact."""
+    """Euler without implicit damping: each step's Δq̇ is h q̈, MuJoCo's constraint solver's
+    q̈, which satisfies M q̈ = Σ f to the solver's tolerance (measured: 1.1e-5 and 2.5e-5 of
+    the largest Δq̇ without and with a push)."""
     pushes = perturbations.Pushes(times=(0.2,), jitter=0.0, impulse=(0.25, 0.25))
     env = cpg_suite.load("darwin_walk_push", task_kwargs={"random": 3, "pushes": pushes})
     env.physics.model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    env.physics.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
     t = overspeed.trace_environment(hand_tuned, env, STEPS)
     assert t.sources.shape == (STEPS * 8, len(overspeed.SOURCES), 12)
     assert np.abs(t.sources[:, overspeed.SOURCES.index("push")]).max() > 1.0  # pushed
-    assert overspeed.closure(t) < 1e-9
+    assert overspeed.closure(t) < 1e-4
 
 
-def test_the_implicit_integrator_stays_close_to_the_split(hand_tuned):
+def test_the_sources_add_up_to_each_velocity_change_of_the_implicit_integrator(hand_tuned):
+    """The task's implicit-fast integrator takes damping implicitly: (M + h D)⁻¹ Σ f."""
     t = overspeed.trace(hand_tuned, "darwin_walk", seed=0, steps=STEPS)
-    assert 0.0 < overspeed.closure(t) < 0.05
+    assert overspeed.closure(t) < 1e-9
 
 
 def test_at_rest_nothing_but_the_servos_and_the_floor_turns_a_joint():

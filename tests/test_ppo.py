@@ -193,6 +193,25 @@ def test_joints_run_files_leaderboard_row_and_policy(tmp_path):
     assert trial["distance_m"] * (not trial["fell"]) == pytest.approx(value, abs=1e-9)
 
 
+def test_a_policy_run_ships_and_verifies_bit_for_bit(tmp_path):
+    """The policy, its normalizer and learning curve ship; `verify` re-scores them."""
+    from cpg_suite.protocol import verify
+
+    settings = _settings(action_space="cpg", test_tiers=("darwin_walk", "darwin_walk_push"))
+    run_dir, summary = ppo.run(settings, _options(tmp_path / "runs"), log=_quiet)
+    dest = str(tmp_path / "shipped" / "ppo" / "darwin_walk" / "cpg_seed0")
+    verify.ship(run_dir, dest)
+    assert {"selected_model.zip", "selected_vecnormalize.pkl", "progress.csv"} <= set(
+        os.listdir(dest)
+    )
+    assert verify.shipped_runs(str(tmp_path / "shipped")) == [dest]
+    trials = verify.read_trials(os.path.join(dest, "trials.csv"))
+    assert [t["tier"] for t in trials] == ["darwin_walk", "darwin_walk_push"]
+    assert verify.verify_run(dest) == [] and verify.verify_run(dest, quick=True) == []
+    stored = runs.read_json(os.path.join(dest, "summary.json"))["test"]
+    assert stored == summary["test"]
+
+
 def test_cpg_run_killed_after_a_checkpoint_resumes_to_the_same_result(tmp_path):
     settings = _settings(action_space="cpg")
     straight_dir, straight = ppo.run(settings, _options(tmp_path / "a"), log=_quiet)

@@ -93,6 +93,15 @@ def test_update_card_restores_a_card_only_while_the_trials_hold(shipped, tmp_pat
     assert (copy / "summary.json").read_text() == stored
 
 
+def test_a_card_extends_an_older_one_only_by_new_keys():
+    stored = {"all": {"n": 3, "quality": {"peak_joint_speed": 4.0}}}
+    fresh = {"all": {"n": 3, "quality": {"peak_joint_speed": 4.0, "energy_per_m": 9.0}}}
+    assert verify.extends(fresh, stored) and verify.extends(stored, stored)
+    assert not verify.extends(stored, fresh)  # a measure missing
+    changed = {"all": {"n": 3, "quality": {"peak_joint_speed": 4.5, "energy_per_m": 9.0}}}
+    assert not verify.extends(changed, stored)
+
+
 def test_the_reference_artifacts_reproduce_quickly():
     """The shipped reference results, re-scored on a sample (`verify --quick`)."""
     artifacts = os.path.join(ROOT, verify.ARTIFACTS)

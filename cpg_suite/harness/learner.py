@@ -152,14 +152,10 @@ def run(
         log(f"{run_dir}: already finished")
         return run_dir, runs.read_json(summary_path)
     checkpoint = _open(learner, settings, options, run_dir, name)
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
+    with sb3.single_threaded():
         summary = _train_and_score(
             learner, settings, options, run_dir, checkpoint, log, on_checkpoint
         )
-    finally:
-        torch.set_num_threads(threads)
     runs.write_json(summary_path, summary)
     return run_dir, summary
 

@@ -12,7 +12,9 @@ module.
 * `TrainedPolicy`: a trained model and its `VecNormalize` statistics as a policy for one
   environment, as `cpg_suite.protocol.score.score_policy` runs it.
 * `import_torch`, `load_model`, `model_bytes`: torch imported safely, models to and from
-  bytes.
+  bytes; `single_threaded`: torch on one thread for a while (training and scoring use it:
+  a policy's actions then do not depend on the machine's core count);
+  `load_shipped_policy`: a shipped run's selected policy.
 
 Import order: with MUJOCO_GL=egl, torch must be imported before dm_control loads (README);
 this module imports torch before any module of `cpg_suite`.
@@ -20,6 +22,7 @@ this module imports torch before any module of `cpg_suite`.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import io
 import os
@@ -30,6 +33,7 @@ from typing import Protocol
 
 import gymnasium
 import numpy as np
+import stable_baselines3
 import torch  # before cpg_suite: with MUJOCO_GL=egl the other order crashes torch (README)
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.base_class import BaseAlgorithm
@@ -37,6 +41,9 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 import cpg_suite
 from cpg_suite import darwin, residual, vector
+
+# The SB3 algorithm of each policy learner's method name (its run directories' second level).
+ALGORITHMS = {"ppo": "PPO"}
 
 # The flattened observation: these keys of the task's observation, in this order (then the
 # CPG phase for the cpg action space).
@@ -357,3 +364,34 @@ def model_bytes(model: BaseAlgorithm) -> bytes:
     buf = io.BytesIO()
     model.save(buf)
     return buf.getvalue()
+
+
+@contextlib.contextmanager
+def single_threaded():
+    """Runs the block with torch on one thread, then restores the thread count."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(threads)
+
+
+def load_shipped_policy(run_dir: str, method: str, settings: dict) -> TrainedPolicy:
+    """The selected policy of a run (`selected_model.zip`, `selected_vecnormalize.pkl`).
+
+    Args:
+      run_dir: The run directory or shipped run.
+      method: The learner's method name (a key of `ALGORITHMS`).
+      settings: The run's settings (config.json's "settings").
+
+    Returns:
+      The policy.
+
+    Raises:
+      ValueError: On a method without a known SB3 algorithm.
+    """
+    if method not in ALGORITHMS:
+        raise ValueError(f"unknown policy learner {method!r}; known: {', '.join(ALGORITHMS)}")
+    algorithm = getattr(stable_baselines3, ALGORITHMS[method])
+    return TrainedPolicy.load(run_dir, algorithm, types.SimpleNamespace(**settings))

@@ -351,12 +351,24 @@ def score_policy(
     Returns:
       The card, as `score_gait`.
     """
+    return score_policy_trials(policy, settings)[0]
+
+
+def score_policy_trials(
+    policy: Callable[[dict], np.ndarray], settings: ScoreSettings | None = None
+) -> tuple[dict, list[dict]]:
+    """The score card of a policy (`score_policy`) and the trials behind it.
+
+    Returns:
+      `(card, trials)`, as `score_gait_trials`.
+    """
     settings = settings or ScoreSettings()
-    per_tier, sim_steps = {}, 0
+    per_tier, sim_steps, rows = {}, 0, []
     for tier in settings.tiers:
+        seeds = protocol.held_out_seeds(settings.seeds)
         trials = [
             policy_trial(policy, tier, seed, settings.steps)
-            for seed in progress.track(protocol.held_out_seeds(settings.seeds), desc=tier)
+            for seed in progress.track(seeds, desc=tier)
         ]
         per_tier[tier] = {
             "d": np.array([r["distance_m"] for r in trials]),
@@ -364,7 +376,17 @@ def score_policy(
             "q": {f: np.array([r["quality"][f] for r in trials]) for f in gait_quality.FIELDS},
         }
         sim_steps += sum(r["sim_steps"] for r in trials)
-    return _card(per_tier, settings, {"sim_steps": sim_steps})
+        rows += [
+            {
+                "tier": tier,
+                "seed": seed,
+                "distance_m": r["distance_m"],
+                "fell": r["fell"],
+                "fall_step": r["fall_step"],
+            }
+            for seed, r in zip(seeds, trials)
+        ]
+    return _card(per_tier, settings, {"sim_steps": sim_steps}), rows
 
 
 class OpenLoopPolicy:

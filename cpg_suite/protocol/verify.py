@@ -11,7 +11,9 @@ behind its leaderboard row (docs/protocol.md#shipped-artifacts):
   * `config.json`: the run's settings, the command that re-runs it (output directory
     written as `runs`) and the package versions it was made with;
   * `summary.json`: its results and the selected gait's test score card;
-  * `selected_params.json`: the gait the run reports (amplitudes, or feedback parameters);
+  * `selected_params.json`: the gait the run reports (amplitudes, or feedback parameters),
+    or, for a policy learner, `selected_model.zip` and `selected_vecnormalize.pkl` (the
+    SB3 model and its observation normalizer) and `progress.csv` (its learning curve);
   * `trials.csv`: the card's trials, one row per tier and test seed (`score.TRIAL_FIELDS`);
   * `versions.json`: the versions it was made with and those it was scored with here.
 
@@ -42,21 +44,25 @@ from collections.abc import Callable
 import numpy as np
 from absl import flags
 
-from cpg_suite import cli, cpg, feedback, progress
+from cpg_suite import cli, cpg, feedback, progress, protocol
 from cpg_suite.harness import runs
 from cpg_suite.protocol import score
 
 ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
-COPIED = ("summary.json", "selected_params.json")  # as they are; config.json relocated
+# Copied as they are (config.json is relocated, summary.json gets the fresh card): a gait
+# run's, and a policy learner's.
+COPIED = ("selected_params.json",)
+COPIED_POLICY = ("selected_model.zip", "selected_vecnormalize.pkl", "progress.csv")
+_GAIT, _POLICY = COPIED[0], COPIED_POLICY[0]
 QUICK_SEEDS = 5  # test seeds per tier in a quick verification
 _CARD_KEYS = ("tiers", "all", "scoring_sim_steps")
 
 
 def shipped_runs(root: str) -> list[str]:
-    """The run folders under `root` (those with a summary and a selected gait), sorted."""
+    """The run folders under `root` (a summary and a selected gait or policy), sorted."""
     found = []
     for dirpath, _, names in os.walk(root):
-        if "summary.json" in names and "selected_params.json" in names:
+        if "summary.json" in names and (_GAIT in names or _POLICY in names):
             found.append(dirpath)
     return sorted(found)
 
@@ -65,6 +71,7 @@ def _settings(config: dict, seeds: int | None = None, threads: int = 2) -> score
     """The score settings a run's card was made with (from its config.json)."""
     s = config["settings"]
     return score.ScoreSettings(
+        tiers=tuple(s.get("test_tiers", protocol.TIERS)),
         seeds=s["test_seeds"] if seeds is None else seeds,
         steps=s["trial_steps"],
         threads=threads,
@@ -80,7 +87,8 @@ def _params(run_dir: str, controller: str) -> np.ndarray:
 
 
 def rescore(run_dir: str, seeds: int | None = None, threads: int = 2) -> tuple[dict, list[dict]]:
-    """Scores a run's selected gait again: `(card, trials)` as `score.score_gait_trials`.
+    """Scores a run's selected gait or policy again: `(card, trials)` as
+    `score.score_gait_trials`.
 
     Args:
       run_dir: A run directory or a shipped run.
@@ -92,6 +100,13 @@ def rescore(run_dir: str, seeds: int | None = None, threads: int = 2) -> tuple[d
     """
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     settings = _settings(config, seeds, threads)
+    if os.path.exists(os.path.join(run_dir, _POLICY)):
+        from cpg_suite.harness import sb3  # the `rl` extra: only runs of policy learners
+
+        method = os.path.basename(os.path.dirname(os.path.dirname(os.path.abspath(run_dir))))
+        policy = sb3.load_shipped_policy(run_dir, method, config["settings"])
+        with sb3.single_threaded():
+            return score.score_policy_trials(policy, settings)
     return score.score_gait_trials(_params(run_dir, settings.controller), settings)
 
 
@@ -131,10 +146,21 @@ def _relocated(config: dict) -> dict:
     return {**config, "command": " ".join(words)}
 
 
+def extends(fresh, stored) -> bool:
+    """Whether a fresh card holds every value of a stored one, equal (it may add keys)."""
+    if isinstance(stored, dict):
+        return isinstance(fresh, dict) and all(
+            k in fresh and extends(fresh[k], v) for k, v in stored.items()
+        )
+    return fresh == stored
+
+
 def ship(run_dir: str, dest: str, threads: int = 2) -> str:
     """Copies a finished run's artifacts into `dest` and adds its trials and versions.
 
-    The gait is scored again; its card must equal the run's own (else nothing is written).
+    The gait or policy is scored again; its card must equal the run's own, or extend it
+    with measures added to the card since the run (`extends`); else nothing is written.
+    The shipped summary holds the fresh card.
 
     Args:
       run_dir: A finished run directory (summary with a test card, selected gait).
@@ -151,12 +177,15 @@ def ship(run_dir: str, dest: str, threads: int = 2) -> str:
     if "test" not in summary:
         raise ValueError(f"{run_dir} has no test score card")
     card, trials = rescore(run_dir, threads=threads)
-    if _jsonable({k: card[k] for k in _CARD_KEYS}) != summary["test"]:
+    fresh = _jsonable({k: card[k] for k in _CARD_KEYS})
+    if not extends(fresh, summary["test"]):
         raise ValueError(f"{run_dir}: scored again, its card differs from the run's")
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     os.makedirs(dest, exist_ok=True)
-    for name in COPIED:
+    policy = os.path.exists(os.path.join(run_dir, _POLICY))
+    for name in COPIED_POLICY if policy else COPIED:
         shutil.copyfile(os.path.join(run_dir, name), os.path.join(dest, name))
+    runs.write_json(os.path.join(dest, "summary.json"), {**summary, "test": fresh})
     runs.write_json(os.path.join(dest, "config.json"), _relocated(config))
     write_trials(os.path.join(dest, "trials.csv"), trials)
     versions = {"made_with": config.get("environment"), "scored_with": runs.environment_record()}
