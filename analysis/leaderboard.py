@@ -124,6 +124,7 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
         except (OSError, ValueError) as e:
             skipped.append(f"{path}: {type(e).__name__}")
             continue
+        summary = _with_given_budget(summary, os.path.join(dirpath, "config.json"))
         match = _SEED.match(run_name)
         config = (match["config"] or "default") if match else run_name
         seed = int(match["seed"]) if match else None
@@ -138,6 +139,20 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
             }
         )
     return found, skipped
+
+
+def _with_given_budget(summary: dict, config_path: str) -> dict:
+    """The summary with `budget_control_steps`, a policy learner's training budget as it
+    was given (config.json's `total_steps`): the learner trains whole rollouts, so its
+    `env_steps` may pass it by less than one rollout."""
+    if "env_steps" not in summary or not os.path.exists(config_path):
+        return summary
+    try:
+        with open(config_path, encoding="utf-8") as f:
+            given = json.load(f)["settings"]["total_steps"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return summary
+    return {**summary, "budget_control_steps": given}
 
 
 def _stats(values: list[float]) -> tuple[float, float, float, float]:
@@ -262,12 +277,12 @@ def score_matrix(tests: list[dict], tiers: tuple[str, ...] = TIERS) -> np.ndarra
 
 def budget_track(summaries: list[dict]) -> str:
     """The budget track of a configuration's runs: "study" (at most 2,501 training trials,
-    or 2.5 M training control steps for a policy learner), "4x" (four times that) or
-    "over_4x"; "" for presets (no training)."""
+    or 2.5 M training control steps given to a policy learner, `budget_control_steps` when
+    known), "4x" (four times that) or "over_4x"; "" for presets (no training)."""
     if not any("evaluations" in s or "env_steps" in s for s in summaries):
         return ""
     ratio = max(
-        s["env_steps"] / STUDY_CONTROL_STEPS
+        s.get("budget_control_steps", s["env_steps"]) / STUDY_CONTROL_STEPS
         if "env_steps" in s
         else s["evaluations"] / STUDY_TRIALS
         for s in summaries

@@ -118,3 +118,18 @@ def test_tracks_ranks_ties_and_provisional_rows(tmp_path):
     assert first["iqm_ci95_low"] <= first["iqm_m"] <= first["iqm_ci95_high"]
     (long,) = [r for r in rows if r["track"] == "4x"]
     assert long["rank"] == 1 and long["status"] == "ranked"
+
+
+def test_a_learner_is_on_the_track_of_the_budget_it_was_given(tmp_path):
+    """PPO trains whole rollouts: 2,502,656 steps for 2.5 M given is the study's budget;
+    without its config the steps taken count."""
+    runs = tmp_path / "runs"
+    card = _card([1.0, 1.0, 1.0, 1.0])
+    summary = {"env_steps": 2_502_656, "sim_steps": 1, "test": card}
+    _run(runs, "ppo", "darwin_walk", "joints_seed0", summary)
+    config = {"settings": {"total_steps": 2_500_000}}
+    (runs / "ppo" / "darwin_walk" / "joints_seed0" / "config.json").write_text(json.dumps(config))
+    _run(runs, "ppo", "darwin_walk", "cpg_seed0", summary)  # no config.json
+    found, _ = leaderboard.find_runs(str(runs))
+    tracks = {r["config"]: r["track"] for r in leaderboard.darwin_rows(found)}
+    assert tracks == {"joints": "study", "cpg": "4x"}

@@ -32,7 +32,9 @@ def shipped(tmp_path_factory):
 def test_a_shipped_run_has_its_trials_versions_and_no_machine_path(shipped):
     run_dir, dest = shipped
     assert sorted(os.listdir(dest)) == [
+        "best_params.json",
         "config.json",
+        "progress.csv",
         "selected_params.json",
         "summary.json",
         "trials.csv",

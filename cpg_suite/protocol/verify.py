@@ -12,8 +12,10 @@ behind its leaderboard row (docs/protocol.md#shipped-artifacts):
     written as `runs`) and the package versions it was made with;
   * `summary.json`: its results and the selected gait's test score card;
   * `selected_params.json`: the gait the run reports (amplitudes, or feedback parameters),
-    or, for a policy learner, `selected_model.zip` and `selected_vecnormalize.pkl` (the
-    SB3 model and its observation normalizer) and `progress.csv` (its learning curve);
+    with `best_params.json` (its best training trial's gait, in-sample) and `progress.csv`
+    (its rounds); or, for a policy learner, `selected_model.zip` and
+    `selected_vecnormalize.pkl` (the SB3 model and its observation normalizer) and
+    `progress.csv` (its learning curve);
   * `trials.csv`: the card's trials, one row per tier and test seed (`score.TRIAL_FIELDS`);
   * `versions.json`: the versions it was made with and those it was scored with here.
 
@@ -51,7 +53,7 @@ from cpg_suite.protocol import score
 ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
 # Copied as they are (config.json is relocated, summary.json gets the fresh card): a gait
 # run's, and a policy learner's.
-COPIED = ("selected_params.json",)
+COPIED = ("selected_params.json", "best_params.json", "progress.csv")
 COPIED_POLICY = ("selected_model.zip", "selected_vecnormalize.pkl", "progress.csv")
 _GAIT, _POLICY = COPIED[0], COPIED_POLICY[0]
 QUICK_SEEDS = 5  # test seeds per tier in a quick verification
