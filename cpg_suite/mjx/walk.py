@@ -41,7 +41,7 @@ import numpy as np
 from mujoco import mjx
 
 from cpg_suite import cpg, darwin, perturbations
-from cpg_suite.mjx import modulated, setconst
+from cpg_suite.mjx import modulated, physics, setconst
 
 TASKS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push")
 ACTION_SPACES = ("joints", "cpg")
@@ -361,7 +361,7 @@ class WalkEnv:
         ctrl = ctrl.at[self._arm_act].set(darwin.ARM_POSE)
         data = data.replace(qpos=q.at[r + 2].add(-lowest), ctrl=ctrl)
         flags = model.opt.disableflags | mujoco.mjtDisableBit.mjDSBL_ACTUATION
-        return mjx.forward(model.replace(opt=model.opt.replace(disableflags=flags)), data)
+        return physics.forward(model.replace(opt=model.opt.replace(disableflags=flags)), data)
 
     @staticmethod
     def _lowest_corner(model: mjx.Model, data: mjx.Data, geom: int) -> jax.Array:
@@ -395,7 +395,7 @@ class WalkEnv:
         x_before = data.qpos[self._root_qpos]
 
         def physics_step(d, _):
-            return mjx.step(model, d), None
+            return physics.step(model, d), None
 
         data, _ = jax.lax.scan(physics_step, data, None, length=self.n_substeps)
         root = data.qpos[self._root_qpos : self._root_qpos + 7]
@@ -458,7 +458,7 @@ class WalkEnv:
         mjx_data = mjx.put_data(self.mj_model, data)
         # `put_data` gives some integer fields another width than `mjx.step` returns.
         if self._data_shapes is None:
-            self._data_shapes = jax.eval_shape(mjx.step, self.model, mjx_data)
+            self._data_shapes = jax.eval_shape(physics.step, self.model, mjx_data)
         mjx_data = jax.tree.map(lambda x, s: jnp.asarray(x, s.dtype), mjx_data, self._data_shapes)
         row = modulated.initial_state(self.config)
         zero = jnp.zeros(())
