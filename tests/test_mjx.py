@@ -263,10 +263,11 @@ def test_steps_match_cpu_reading_by_reading(joints):
         touch_cpu.append(ts.observation["foot_touch"])
     # The touch sensors count the contacts whose ray meets the sole zone; the box-floor
     # contacts lie on the zone's edges, so which count is decided by roundoff on both
-    # sides (docs/architecture.md#the-mjx-path). Both read the same loads over the steps.
+    # sides (docs/architecture.md#the-mjx-path): equal in 40 % of these steps, up to
+    # 26.7 N apart. Their means over a trial agree (`test_hand_tuned_trial_matches_cpu`).
     weight = cpu.physics.total_mass() * 9.81
     assert np.all(np.asarray(touch_mjx) >= 0) and np.max(touch_mjx) < 2 * weight
-    np.testing.assert_allclose(np.mean(touch_mjx), np.mean(touch_cpu), rtol=0.25)
+    assert np.max(touch_cpu) < 2 * weight
 
 
 def test_randomized_and_pushed_steps_match_cpu(joints, episode_model):
@@ -298,32 +299,29 @@ def test_randomized_and_pushed_steps_match_cpu(joints, episode_model):
 
 
 def test_hand_tuned_trial_matches_cpu(joints):
-    """The hand-tuned gait walks the same distance without falling over a full trial."""
+    """The hand-tuned gait over a full trial: the same distance and drift, no fall, and the
+    same mean touch readings (`evaluation.gait.evaluate_gait`'s stepping on the CPU side)."""
     env, step = joints
     cpu, _ = _cpu_env("darwin_walk", time_limit=float("inf"))
     steps = walk.EPISODE_STEPS
     state = env.state_from_mujoco(cpu.physics.data)
-    start, start_y = cpu.physics.forward_position(), cpu.physics.lateral_position()
+    start = cpu.physics.torso_position()
     actions = _gait_actions(cpu.physics, steps)
-    fell = False
+    fell, cpu_fell, touch_mjx, touch_cpu = False, False, 0.0, 0.0
     for t in range(steps):
         state = step(state, actions[t])
-        fell |= bool(state.fell)
-    ts_done = bool(state.done)
-    reference = darwin_trial(SEED, steps)
-    assert not fell and not reference["fell"] and ts_done  # the time limit ends it
+        ts = cpu.step(actions[t])
+        fell, cpu_fell = fell or bool(state.fell), cpu_fell or ts.last()
+        touch_mjx += _touch(state.obs).sum()
+        touch_cpu += ts.observation["foot_touch"].sum()
+    assert not fell and not cpu_fell and bool(state.done)  # the time limit ends it
     assert int(state.step) == steps
-    distance = float(state.data.qpos[0]) - start
-    np.testing.assert_allclose(distance, reference["distance_m"], atol=DISTANCE_ATOL)
-    lateral = float(state.data.qpos[1]) - start_y
-    np.testing.assert_allclose(lateral, reference["lateral_m"], atol=LATERAL_ATOL)
-
-
-@functools.cache
-def darwin_trial(seed: int, steps: int) -> dict:
-    from cpg_suite.evaluation.gait import evaluate_gait
-
-    return evaluate_gait(cpg.amplitudes_from("hand_tuned"), seed, "darwin_walk", steps)
+    end = cpu.physics.torso_position()
+    distance, lateral = np.asarray(state.data.qpos[:2]) - start[:2]
+    np.testing.assert_allclose(distance, end[0] - start[0], atol=DISTANCE_ATOL)
+    np.testing.assert_allclose(lateral, end[1] - start[1], atol=LATERAL_ATOL)
+    # Measured over the first 200 steps: means 11.34 N (MJX) and 11.44 N (CPU).
+    np.testing.assert_allclose(touch_mjx, touch_cpu, rtol=0.1)
 
 
 def test_modulated_cpg_matches_residual():
