@@ -27,7 +27,8 @@ state before integration, so the position and velocity readings are computed fro
 `qpos`/`qvel` (the torso is the free-joint body: its frame is the root's coordinates and the
 gyro, at a site aligned with it, reads the root's angular velocity) and the other two are
 MJX's `accelerometer` and `touch` sensors; `tests/test_mjx.py` checks all against the CPU
-sensors. `darwin_walk_rough` is not here: see docs/architecture.md#the-mjx-path.
+sensors. The physics steps are `cpg_suite.mjx.physics.step`: `mjx.step` with MuJoCo C's
+box-plane contacts. `darwin_walk_rough` is not here: see docs/architecture.md#the-mjx-path.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ import mujoco
 import numpy as np
 from mujoco import mjx
 
-from cpg_suite import cpg, darwin, perturbations
+from cpg_suite import cpg, darwin, perturbations, residual
 from cpg_suite.mjx import modulated, physics, setconst
 
 TASKS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push")
@@ -195,7 +196,7 @@ class WalkEnv:
     @property
     def action_size(self) -> int:
         """Length of the action vector (12 in both action spaces)."""
-        return 12 if self.action_space == "joints" else modulated.residual.N_ACTIONS
+        return 12 if self.action_space == "joints" else residual.N_ACTIONS
 
     # Actions.
     def action_to_targets(self, action: jax.Array) -> jax.Array:
