@@ -18,6 +18,13 @@ def _readme() -> str:
         return f.read()
 
 
+# MJX must match MuJoCo's minor version (mujoco-mjx 3.17 with mujoco 3.17); JAX as tested
+# (0.10.2). gymnasium: the CPG action space's constants live in cpg_suite.residual.
+_JAX = ">=0.10.2,<0.11"
+_MJX_COMMON = ["mujoco==3.17.*", "mujoco-mjx==3.17.*", "gymnasium>=1.0,<2"]
+_MJX = [*_MJX_COMMON, f"jax[cpu]{_JAX}"]
+
+
 setup(
     name="cpg-suite",
     version=_version(),
@@ -66,6 +73,8 @@ setup(
             "stable-baselines3>=2.3,<3",
             # The Ray backend on a real local Ray instance.
             "ray>=2.9,<3",
+            # The MJX walking tiers against the CPU reference, on JAX's CPU backend.
+            *_MJX,
         ],
         "plots": [
             "matplotlib>=3.7,<4",
@@ -85,6 +94,10 @@ setup(
             "torch>=2.3,<3",
             "stable-baselines3>=2.3,<3",
         ],
+        # The walking tiers in MJX (cpg_suite.mjx) on JAX's CPU backend.
+        "mjx": [*_MJX],
+        # The same on NVIDIA GPUs (CUDA 12 wheels of JAX, several GB).
+        "gpu": [*_MJX_COMMON, f"jax[cuda12]{_JAX}"],
     },
     classifiers=[
         "Programming Language :: Python :: 3",

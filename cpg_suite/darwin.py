@@ -50,10 +50,10 @@ from dm_env import specs
 from cpg_suite import base, cpg, perturbations
 
 CONTROL_TIMESTEP = 0.016  # s: Webots DARwIn-OP basicTimeStep (the one definition).
-_DEFAULT_TIME_LIMIT = 16.0  # s: 1000 control steps ("1000 timesteps" of the study).
+DEFAULT_TIME_LIMIT = 16.0  # s: 1000 control steps ("1000 timesteps" of the study).
 _FALL_HEIGHT = 0.22  # m: torso origin height below which the robot has fallen.
 _FALL_TILT_COS = float(np.cos(np.deg2rad(50.0)))  # torso z-axis · world z below this: fallen.
-_INIT_NOISE = 0.01  # rad: U(−x, x) added to each leg joint of the initial posture.
+INIT_NOISE = 0.01  # rad: U(−x, x) added to each leg joint of the initial posture.
 _STANCE_FRACTION = 0.05  # of body weight: a foot carrying more is a stance foot.
 _WALK_VIZ_SPEED = 0.2  # m/s shown as full reward colour.
 _BALANCE_VIZ_DISTANCE = 0.05  # m of COP offset shown as zero reward colour.
@@ -76,21 +76,38 @@ OBJECTIVES = ("walk", "balance")
 SUITE = containers.TaggedTasks()
 
 
-def torso_upright(quaternion: np.ndarray) -> np.ndarray:
-    """z component of the torso's z axis from its orientation quaternion(s) (w, x, y, z)."""
-    q = np.asarray(quaternion, dtype=np.float64)
+def torso_upright(quaternion: np.ndarray, xp=np) -> np.ndarray:
+    """z component of the torso's z axis from its orientation quaternion(s) (w, x, y, z).
+
+    Args:
+      quaternion: (..., 4) quaternions (w, x, y, z), not necessarily normalized.
+      xp: The array module: `numpy` (float64), or `jax.numpy` for traced arrays
+        (`cpg_suite.mjx`).
+
+    Returns:
+      (...,) z component of the body z axis in the world.
+    """
+    q = np.asarray(quaternion, dtype=np.float64) if xp is np else xp.asarray(quaternion)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     return (w * w - x * x - y * y + z * z) / (w * w + x * x + y * y + z * z)
 
 
-def has_fallen(root_qpos: np.ndarray) -> np.ndarray:
+def has_fallen(root_qpos: np.ndarray, xp=np) -> np.ndarray:
     """The fall test of the tasks, from the free joint's 7 coordinates (x, y, z, quaternion).
 
     The torso origin below 0.22 m, or the torso tilted more than 50° from upright. Shared by
-    `Physics.fallen` and the batched evaluators, so both give the same verdicts.
+    `Physics.fallen`, the batched evaluators and the MJX tasks, so all give the same verdicts.
+
+    Args:
+      root_qpos: (..., 7) free-joint coordinates.
+      xp: The array module: `numpy` (float64), or `jax.numpy` for traced arrays.
+
+    Returns:
+      (...,) bool, fallen.
     """
-    q = np.asarray(root_qpos, dtype=np.float64)
-    return (q[..., 2] < _FALL_HEIGHT) | (torso_upright(q[..., 3:7]) < _FALL_TILT_COS)
+    q = np.asarray(root_qpos, dtype=np.float64) if xp is np else xp.asarray(root_qpos)
+    upright = torso_upright(q[..., 3:7], xp)
+    return (q[..., 2] < _FALL_HEIGHT) | (upright < _FALL_TILT_COS)
 
 
 def get_model_and_assets(
@@ -110,10 +127,10 @@ def get_model_and_assets(
 
 @SUITE.add("benchmarking")
 def walk(
-    time_limit: float = _DEFAULT_TIME_LIMIT,
+    time_limit: float = DEFAULT_TIME_LIMIT,
     random=None,
     posture: np.ndarray | None = None,
-    init_noise: float = _INIT_NOISE,
+    init_noise: float = INIT_NOISE,
     servo_gain: float | None = None,
     torque_limit: float | None = None,
     environment_kwargs: dict | None = None,
@@ -139,10 +156,10 @@ def walk(
 
 @SUITE.add("benchmarking")
 def balance(
-    time_limit: float = _DEFAULT_TIME_LIMIT,
+    time_limit: float = DEFAULT_TIME_LIMIT,
     random=None,
     posture: np.ndarray | None = None,
-    init_noise: float = _INIT_NOISE,
+    init_noise: float = INIT_NOISE,
     servo_gain: float | None = None,
     torque_limit: float | None = None,
     environment_kwargs: dict | None = None,
@@ -162,7 +179,7 @@ def balance(
 
 @SUITE.add()
 def walk_randomized(
-    time_limit: float = _DEFAULT_TIME_LIMIT,
+    time_limit: float = DEFAULT_TIME_LIMIT,
     random=None,
     posture: np.ndarray | None = None,
     randomization: perturbations.Randomization | None = None,
@@ -191,7 +208,7 @@ def walk_randomized(
 
 @SUITE.add()
 def walk_push(
-    time_limit: float = _DEFAULT_TIME_LIMIT,
+    time_limit: float = DEFAULT_TIME_LIMIT,
     random=None,
     posture: np.ndarray | None = None,
     pushes: perturbations.Pushes | None = None,
@@ -207,12 +224,12 @@ def walk_push(
       A `control.Environment`.
     """
     pushes = pushes or perturbations.Pushes()
-    return _tier(time_limit, random, posture, environment_kwargs, _INIT_NOISE, pushes=pushes)
+    return _tier(time_limit, random, posture, environment_kwargs, INIT_NOISE, pushes=pushes)
 
 
 @SUITE.add()
 def walk_rough(
-    time_limit: float = _DEFAULT_TIME_LIMIT,
+    time_limit: float = DEFAULT_TIME_LIMIT,
     random=None,
     posture: np.ndarray | None = None,
     terrain: perturbations.Terrain | None = None,
@@ -228,7 +245,7 @@ def walk_rough(
       A `control.Environment`.
     """
     terrain = terrain or perturbations.Terrain()
-    return _tier(time_limit, random, posture, environment_kwargs, _INIT_NOISE, terrain=terrain)
+    return _tier(time_limit, random, posture, environment_kwargs, INIT_NOISE, terrain=terrain)
 
 
 def _tier(time_limit, random, posture, environment_kwargs, init_noise, **perturbation):
@@ -643,7 +660,7 @@ class CPGTask(base.Task):
         self,
         objective: str,
         posture: np.ndarray | None = None,
-        init_noise: float = _INIT_NOISE,
+        init_noise: float = INIT_NOISE,
         random=None,
         randomization: perturbations.Randomization | None = None,
         pushes: perturbations.Pushes | None = None,

@@ -1,0 +1,186 @@
+r"""A CPG gait (default hand-tuned) in the MJX env and in the CPU reference, from one state.
+
+  python benchmarks/mjx_agreement.py [--params=hand_tuned] [--seeds=0-4] [--steps=1000] \
+      [--precisions=64,32]
+
+For each seed, the CPU task `darwin_walk` is reset with it (`evaluation.gait.evaluate_gait`
+runs the trial); its reset state is put into MJX (`WalkEnv.state_from_mujoco`) and the same
+joint-target actions are stepped there, in float64 and in float32 (the precision of GPU
+training). Prints each trial's distance, lateral drift and fall in both, and the largest
+differences; for scale, also the CPU trial from a start moved by 1e-9 rad per leg joint.
+Needs the `mjx` extra; runs on whatever device JAX picks.
+"""
+
+from __future__ import annotations
+
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+import dataclasses
+import functools
+import json
+import time
+
+import jax
+import numpy as np
+from absl import flags
+
+import cpg_suite
+from cpg_suite import cli, cpg, darwin
+from cpg_suite.evaluation.gait import evaluate_gait, parse_params
+from cpg_suite.mjx import walk
+
+_PRECISIONS = (64, 32)
+_EPS = 1e-9  # rad: the change of the start posture in the CPU's own sensitivity trial.
+
+
+@dataclasses.dataclass(frozen=True)
+class AgreementSettings:
+    """What the comparison runs.
+
+    Attributes:
+      params: A preset (`cpg.PRESETS`) or a JSON file of the 11 amplitudes.
+      seeds: Initial-state seeds of the CPU task: `N`, `A-B` or a comma list.
+      steps: Control steps per trial.
+      precisions: MJX float widths to run, comma-separated (64 and/or 32).
+    """
+
+    params: str = "hand_tuned"
+    seeds: str = "0-4"
+    steps: int = 1000
+    precisions: str = "64,32"
+
+    def __post_init__(self):
+        cli.parse_seeds(self.seeds)
+        cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
+        cli.require(
+            set(self.precision_list()) <= set(_PRECISIONS) and self.precision_list(),
+            f"--precisions must name 64 and/or 32, got {self.precisions!r}",
+        )
+
+    def precision_list(self) -> list[int]:
+        """The float widths, parsed (unparseable entries become 0, which fails the check)."""
+        return [int(p) if p.strip().isdigit() else 0 for p in self.precisions.split(",")]
+
+
+def mjx_trials(amplitudes: np.ndarray, seeds: list[int], steps: int, x64: bool) -> list[dict]:
+    """A gait in MJX from the CPU task's reset state for each seed.
+
+    Args:
+      amplitudes: The gait's 11 amplitudes, degrees.
+      seeds: The CPU task's seeds.
+      steps: Control steps.
+      x64: float64 physics (else float32).
+
+    Returns:
+      Per seed, as `walk.trial_result`, plus `seconds` (wall time; the first trial's
+      includes the compilation).
+    """
+    targets = cpg.trajectories(amplitudes, steps, darwin.CONTROL_TIMESTEP)
+    results = []
+    with jax.enable_x64(x64):
+        env = walk.WalkEnv("darwin_walk")
+        run = jax.jit(functools.partial(walk.rollout, env))
+        for seed in seeds:
+            start = time.perf_counter()
+            cpu = cpg_suite.load("darwin_walk", task_kwargs={"random": seed})
+            cpu.reset()
+            state = env.state_from_mujoco(cpu.physics.data)
+            out = jax.device_get(run(state, cpu.physics.targets_to_action(targets[0])))
+            result = walk.trial_result(out, cpu.physics.torso_position()[:2])
+            results.append({**result, "seconds": round(time.perf_counter() - start, 1)})
+    return results
+
+
+def cpu_perturbed_trial(amplitudes: np.ndarray, seed: int, steps: int, eps: float = _EPS) -> dict:
+    """The CPU trial of `seed` with every leg joint's start angle moved by `eps` rad.
+
+    How far the reference's own trials move for a roundoff-sized change of the start: the
+    scale against which the MJX-CPU gap is judged.
+
+    Args:
+      amplitudes: The gait's 11 amplitudes, degrees.
+      seed: The CPU task's seed.
+      steps: Control steps.
+      eps: The change of each leg joint angle, rad.
+
+    Returns:
+      `distance_m`, `lateral_m`, `fall_step`.
+    """
+    env = cpg_suite.load("darwin_walk", task_kwargs={"random": seed, "time_limit": float("inf")})
+    env.reset()
+    physics = env.physics
+    legs = physics.leg_joint_angles() + eps
+    with physics.reset_context():
+        physics.set_standing_pose(legs)
+    targets = cpg.trajectories(amplitudes, steps, darwin.CONTROL_TIMESTEP)
+    start = physics.torso_position()
+    fall_step = None
+    for t, action in enumerate(physics.targets_to_action(targets[0])):
+        if env.step(action).last():
+            fall_step = t + 1
+            break
+    end = physics.torso_position()
+    return {
+        "distance_m": float(end[0] - start[0]),
+        "lateral_m": float(end[1] - start[1]),
+        "fall_step": fall_step,
+    }
+
+
+def compare(settings: AgreementSettings) -> list[dict]:
+    """Runs every seed on the CPU and in MJX; prints one JSON line per trial and a summary.
+
+    Args:
+      settings: Seeds, trial length and precisions.
+
+    Returns:
+      The rows printed (one per seed).
+    """
+    seeds = cli.parse_seeds(settings.seeds)
+    amplitudes = parse_params(settings.params)
+    mjx = {
+        bits: mjx_trials(amplitudes, seeds, settings.steps, bits == 64)
+        for bits in settings.precision_list()
+    }
+    keys = ("distance_m", "lateral_m", "fall_step")
+    rows = []
+    for i, seed in enumerate(seeds):
+        cpu = evaluate_gait(amplitudes, seed, "darwin_walk", settings.steps)
+        row = {"seed": seed, "cpu": {k: cpu[k] for k in keys}}
+        row["cpu_perturbed"] = cpu_perturbed_trial(amplitudes, seed, settings.steps)
+        for bits, results in mjx.items():
+            row[f"mjx_f{bits}"] = {k: results[i][k] for k in (*keys, "seconds")}
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+    cpu_falls = sum(r["cpu"]["fall_step"] is not None for r in rows)
+    for name in (*(f"mjx_f{bits}" for bits in mjx), "cpu_perturbed"):
+        gap = [abs(r[name]["distance_m"] - r["cpu"]["distance_m"]) for r in rows]
+        side = [abs(r[name]["lateral_m"] - r["cpu"]["lateral_m"]) for r in rows]
+        falls = sum(r[name]["fall_step"] is not None for r in rows)
+        print(
+            f"{name}: max |distance - CPU| {max(gap):.2e} m, max |lateral - CPU| "
+            f"{max(side):.2e} m over {len(rows)} seeds; falls {falls} (CPU {cpu_falls})"
+        )
+    return rows
+
+
+def define_flags() -> None:
+    """Defines this script's command-line flags (only when it runs as a program)."""
+    d = AgreementSettings()
+    flags.DEFINE_string("params", d.params, "Preset or JSON file of the 11 amplitudes.")
+    flags.DEFINE_string("seeds", d.seeds, "Seeds of the CPU task: N, A-B or a comma list.")
+    flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")
+    flags.DEFINE_string("precisions", d.precisions, "MJX float widths: 64 and/or 32.")
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    compare(cli.settings_from_flags(AgreementSettings))
+
+
+if __name__ == "__main__":
+    define_flags()
+    cli.run(main)
