@@ -20,6 +20,10 @@ from absl import flags, logging as absl_logging
 # what changes below is ours.
 import dm_control.suite, gymnasium, mujoco, pandas, scipy.stats, shimmy, tqdm  # noqa
 import torch, stable_baselines3  # noqa  (baselines.ppo imports them)
+# jax sets TF_CPP_MIN_LOG_LEVEL and TPU_SKIP_MDS_QUERY and draws from np.random when first
+# imported (cpg_suite.mjx imports it; test_importing_mjx_keeps_numpy_global_draws covers
+# the draw, which cpg_suite.mjx undoes).
+import jax, mujoco.mjx  # noqa
 
 def snapshot():
     return {
@@ -123,3 +127,18 @@ def test_pytorch_agent_runs_beside_cpg_suite_headless():
     )
     assert out.returncode == 0, f"exit {out.returncode}: {out.stderr[-3000:]}"
     assert out.stdout.strip().splitlines()[-1] == "trained"
+
+
+def test_importing_mjx_keeps_numpy_global_draws():
+    """jax draws from numpy's global generator on import; cpg_suite.mjx puts it back."""
+    code = (
+        "import numpy as np\nnp.random.seed(7)\n"
+        "import cpg_suite.mjx, sys\nassert 'jax' in sys.modules\n"
+        "print(np.random.randint(0, 2**31, size=3).tolist())"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=_clean_env(), timeout=300
+    )
+    assert out.returncode == 0, out.stderr[-3000:]
+    rng = __import__("numpy").random.RandomState(7)
+    assert out.stdout.strip().splitlines()[-1] == str(rng.randint(0, 2**31, size=3).tolist())
