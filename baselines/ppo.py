@@ -49,6 +49,7 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from cpg_suite import cli, progress, protocol, residual
 from cpg_suite.harness import checkpoints, learner, runs, sb3
+from cpg_suite.protocol import score
 
 METHOD = "ppo"  # its run directories' second level and its leaderboard rows
 TASKS = protocol.TIERS
@@ -130,21 +131,8 @@ class PPOSettings:
             self.num_envs <= protocol.TRAINING.stop // 2,
             f"--num_envs must be ≤ {protocol.TRAINING.stop // 2}, got {self.num_envs}",
         )
-        require(
-            self.validation_seeds <= len(protocol.VALIDATION),
-            f"--validation_seeds must be ≤ {len(protocol.VALIDATION)}",
-        )
-        require(
-            0 <= self.test_seeds <= len(protocol.TEST),
-            f"--test_seeds must lie in [0, {len(protocol.TEST)}], got {self.test_seeds}",
-        )
-        tiers = tuple(self.test_tiers)
+        tiers = cli.require_scoring(self.validation_seeds, self.test_seeds, self.test_tiers)
         object.__setattr__(self, "test_tiers", tiers)
-        unknown = [t for t in tiers if t not in protocol.TIERS]
-        require(
-            bool(tiers) and not unknown,
-            f"unknown --test_tiers {unknown or list(tiers)}; valid: {', '.join(protocol.TIERS)}",
-        )
         require(
             self.amplitude_scale >= 0, f"--amplitude_scale must be ≥ 0, got {self.amplitude_scale}"
         )
@@ -274,8 +262,7 @@ def summary_line(run_dir: str, summary: dict) -> str:
         f"{summary['selected']['validation_success_weighted_m']:+.3f} m)"
     )
     if "test" in summary:
-        swd = summary["test"]["all"]["success_weighted_distance_m"]
-        line += f"; test score {swd['mean']:+.3f} m [{swd['ci95'][0]:+.3f}, {swd['ci95'][1]:+.3f}]"
+        line += "; test score " + score.score_text(summary["test"]["all"])
     return line
 
 

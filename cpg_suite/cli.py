@@ -263,6 +263,39 @@ def require(condition: bool, message: str) -> None:
         raise ValueError(message)
 
 
+def require_scoring(validation_seeds: int, test_seeds: int, test_tiers) -> tuple[str, ...]:
+    """Checks a policy learner's validation seeds, test seeds and score-card tiers.
+
+    Args:
+      validation_seeds: Validation seeds the policy is selected on (1 .. 1,000,000).
+      test_seeds: Test seeds per tier (0: no score card .. 50).
+      test_tiers: The score card's tiers (`cpg_suite.protocol.TIERS`), any iterable.
+
+    Returns:
+      The tiers as a tuple.
+
+    Raises:
+      ValueError: Naming the first bad value and what is valid.
+    """
+    from cpg_suite import protocol
+
+    require(
+        isinstance(validation_seeds, int) and 1 <= validation_seeds <= len(protocol.VALIDATION),
+        f"--validation_seeds must lie in [1, {len(protocol.VALIDATION)}], got {validation_seeds!r}",
+    )
+    require(
+        0 <= test_seeds <= len(protocol.TEST),
+        f"--test_seeds must lie in [0, {len(protocol.TEST)}], got {test_seeds}",
+    )
+    tiers = tuple(test_tiers)
+    unknown = [t for t in tiers if t not in protocol.TIERS]
+    require(
+        bool(tiers) and not unknown,
+        f"unknown --test_tiers {unknown or list(tiers)}; valid: {', '.join(protocol.TIERS)}",
+    )
+    return tiers
+
+
 BACKENDS = ("local", "ray")  # where runs and trials execute (`cpg_suite.evaluation.ray_backend`)
 
 

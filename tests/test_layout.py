@@ -15,6 +15,7 @@ METHODS = (
     "baselines.cem",
     "baselines.cmaes",
     "baselines.ppo",
+    "baselines.ppo_mjx",
     "baselines.nac",
     "baselines.tabular",
 )

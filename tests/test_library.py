@@ -24,6 +24,8 @@ import torch, stable_baselines3  # noqa  (baselines.ppo imports them)
 # imported (cpg_suite.mjx imports it; test_importing_mjx_keeps_numpy_global_draws covers
 # the draw, which cpg_suite.mjx undoes).
 import jax, mujoco.mjx  # noqa
+# Brax (cpg_suite.mjx.training) brings orbax, which defines absl flags of its own.
+import brax.envs, brax.training.agents.ppo.train  # noqa
 
 def snapshot():
     return {

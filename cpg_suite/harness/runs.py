@@ -115,6 +115,11 @@ def _atomic_write_bytes(path: str, data: bytes) -> None:
         raise
 
 
+def write_bytes(path: str, data: bytes) -> None:
+    """Writes `data` to `path` atomically (a reader sees the old file or the new one)."""
+    _atomic_write_bytes(path, data)
+
+
 def to_jsonable(obj):
     """`obj` with NumPy arrays and scalars turned into lists and Python numbers."""
     if isinstance(obj, dict):

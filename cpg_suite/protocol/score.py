@@ -412,6 +412,19 @@ class OpenLoopPolicy:
         self._t = 0
 
 
+def score_text(row: dict) -> str:
+    """A card row's success-weighted distance with its 95 % interval, as one phrase.
+
+    Args:
+      row: A row of a score card (`card["all"]` or `card["tiers"][tier]`).
+
+    Returns:
+      "<mean> m [<low>, <high>]", signed, 3 decimals.
+    """
+    swd = row["success_weighted_distance_m"]
+    return f"{swd['mean']:+.3f} m [{swd['ci95'][0]:+.3f}, {swd['ci95'][1]:+.3f}]"
+
+
 def format_card(card: dict) -> str:
     """The card as a fixed-width table, one line per tier and one for all tiers."""
     lines = [

@@ -1,0 +1,580 @@
+r"""PPO (Brax) on the MJX walking tiers: the GPU training path, scored on the CPU reference.
+
+  pip install ".[gpu]"   # JAX with CUDA, MJX, Brax
+  python -m baselines.ppo_mjx --task=darwin_walk --action_space=cpg
+  python -m baselines.ppo_mjx --task=darwin_walk --action_space=joints --total_steps=100000000
+
+Beyond the study (docs/decisions.md#ppo-on-mjx). Brax's PPO
+(`brax.training.agents.ppo.train`) learns on `num_envs` copies of the training tier in MJX
+(`cpg_suite.mjx.WalkEnv` behind `cpg_suite.mjx.training`: fresh per-episode draws, the
+time limit a truncation, a fall terminal). Each update collects `unroll_length` steps of
+`batch_size` × `num_minibatches` environments, computes GAE advantages (discount
+`discounting`, λ = `gae_lambda`) on rewards × `reward_scaling`, and makes
+`num_updates_per_batch` passes of `num_minibatches` minibatches minimizing the clipped
+surrogate loss (ratio clipped to 1 ± `clipping_epsilon`) + ½ value loss − `entropy_cost` ·
+entropy with Adam at `learning_rate`; observations are normalized by running statistics,
+actions are tanh-squashed Gaussians. Hyperparameters default to MuJoCo Playground's
+locomotion PPO settings.
+
+Selection and scoring happen on the CPU reference, never in MJX: every
+`validation_every` env steps the deterministic policy is exported to NumPy
+(`NumpyPolicy`) and run in the CPU task on `validation_seeds` validation seeds of the
+training tier; the best one is kept as `selected_policy.npz` and scored at the end on the
+test protocol (`cpg_suite.protocol.score`), which makes a leaderboard row whose budget
+holds the env steps and the training wall time on the named device.
+
+Run directory `<output_dir>/ppo_mjx/<task>/<action_space>_seed<seed>/`: config.json,
+progress.csv, checkpoint.pkl (the last parameters), selected_policy.npz, summary.json.
+`--resume` restarts from checkpoint.pkl's parameters and normalizer for the remaining
+steps; Adam's moments and the environments start afresh, so a resumed run is not bit for
+bit the uninterrupted one (Brax's trainer keeps no more).
+"""
+
+from __future__ import annotations
+
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+import dataclasses
+import functools
+import io
+import math
+import os
+import pickle
+import time
+from collections.abc import Callable
+
+import numpy as np
+from absl import flags
+
+import cpg_suite
+from cpg_suite import cli, darwin, progress, protocol, residual
+from cpg_suite.harness import runs
+from cpg_suite.mjx import walk as mjx_walk
+from cpg_suite.protocol import score
+
+METHOD = "ppo_mjx"  # its run directories' second level and its leaderboard rows
+TASKS = mjx_walk.TASKS
+ACTION_SPACES = mjx_walk.ACTION_SPACES
+PROGRESS_FIELDS = [
+    "env_steps",
+    "validation_m",
+    "validation_fall_rate",
+    "best_validation_m",
+    "train_wall_s",
+    "steps_per_s",
+]
+
+
+@dataclasses.dataclass(frozen=True)
+class PPOMJXSettings:
+    """The settings of a PPO-on-MJX run; all of them decide the result.
+
+    Attributes:
+      task: The training tier (`cpg_suite.mjx.TASKS`).
+      action_space: "joints" (12 joint targets) or "cpg" (CPG modulation).
+      total_steps: Training env steps (control steps summed over the environments); Brax
+        rounds them up to whole updates.
+      num_envs: Environments stepped together (must divide batch_size × num_minibatches).
+      seed: Seed of the networks, the sampling and the episode draws.
+      trial_steps: Control steps per episode: training, validation and test (1000 = 16 s).
+      validation_every: Env steps between CPU validations and checkpoints.
+      validation_seeds: Validation seeds of the training tier the policy is selected on.
+      test_seeds: Test seeds per tier of the final score card (0: no card).
+      test_tiers: The tiers of the score card.
+      unroll_length, batch_size, num_minibatches, num_updates_per_batch, learning_rate,
+        entropy_cost, discounting, gae_lambda, clipping_epsilon, reward_scaling,
+        max_grad_norm: Brax PPO's hyperparameters.
+      policy_layers: Hidden layers of the policy network.
+      value_layers: Hidden layers of the value network.
+    """
+
+    task: str = "darwin_walk"
+    action_space: str = "joints"
+    total_steps: int = 2_500_000
+    num_envs: int = 8192
+    seed: int = 0
+    trial_steps: int = 1000
+    validation_every: int = 500_000
+    validation_seeds: int = 10
+    test_seeds: int = len(protocol.TEST)
+    test_tiers: tuple[str, ...] = protocol.TIERS
+    unroll_length: int = 20
+    batch_size: int = 256
+    num_minibatches: int = 32
+    num_updates_per_batch: int = 4
+    learning_rate: float = 3e-4
+    entropy_cost: float = 1e-2
+    discounting: float = 0.97
+    gae_lambda: float = 0.95
+    clipping_epsilon: float = 0.2
+    reward_scaling: float = 10.0
+    max_grad_norm: float = 1.0
+    policy_layers: tuple[int, ...] = (128, 128, 128, 128)
+    value_layers: tuple[int, ...] = (256, 256, 256, 256, 256)
+
+    def __post_init__(self):
+        require = cli.require
+        require(self.task in TASKS, f"unknown --task {self.task!r}; valid: {', '.join(TASKS)}")
+        require(
+            self.action_space in ACTION_SPACES,
+            f"--action_space must be one of {', '.join(ACTION_SPACES)}, got {self.action_space!r}",
+        )
+        for name in (
+            "total_steps",
+            "num_envs",
+            "trial_steps",
+            "validation_every",
+            "validation_seeds",
+            "unroll_length",
+            "batch_size",
+            "num_minibatches",
+            "num_updates_per_batch",
+        ):
+            value = getattr(self, name)
+            require(isinstance(value, int) and value >= 1, f"--{name} must be ≥ 1, got {value!r}")
+        require(self.seed >= 0, f"--seed must be ≥ 0, got {self.seed}")
+        require(
+            (self.batch_size * self.num_minibatches) % self.num_envs == 0,
+            f"--num_envs ({self.num_envs}) must divide --batch_size × --num_minibatches "
+            f"({self.batch_size * self.num_minibatches})",
+        )
+        tiers = cli.require_scoring(self.validation_seeds, self.test_seeds, self.test_tiers)
+        object.__setattr__(self, "test_tiers", tiers)
+        for name in ("learning_rate", "clipping_epsilon", "reward_scaling", "max_grad_norm"):
+            value = getattr(self, name)
+            require(value > 0, f"--{name} must be > 0, got {value}")
+        require(self.entropy_cost >= 0, f"--entropy_cost must be ≥ 0, got {self.entropy_cost}")
+        require(
+            0 < self.discounting <= 1, f"--discounting must lie in (0, 1], got {self.discounting}"
+        )
+        require(
+            0 <= self.gae_lambda <= 1, f"--gae_lambda must lie in [0, 1], got {self.gae_lambda}"
+        )
+        for name in ("policy_layers", "value_layers"):
+            object.__setattr__(self, name, _layers(getattr(self, name), name))
+
+    @property
+    def num_evals(self) -> int:
+        """Brax's evaluation points: the start and one per `validation_every` env steps."""
+        return math.ceil(self.total_steps / self.validation_every) + 1
+
+
+def _layers(value, name: str) -> tuple[int, ...]:
+    try:
+        layers = tuple(int(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"--{name} must be layer sizes, got {value!r}") from None
+    cli.require(
+        bool(layers) and all(v >= 1 for v in layers),
+        f"--{name} must be positive layer sizes, got {value!r}",
+    )
+    return layers
+
+
+def default_run_name(settings: PPOMJXSettings) -> str:
+    """`<action_space>_seed<seed>`."""
+    return f"{settings.action_space}_seed{settings.seed}"
+
+
+# The exported policy.
+class NumpyPolicy:
+    """A Brax PPO policy exported to NumPy, run in the CPU task (no JAX needed).
+
+    The deterministic action of Brax's tanh-Gaussian policy: the observation (the MJX
+    env's vector: `cpg_suite.mjx.OBSERVATION_KEYS`, plus the CPG phase for `cpg`) is
+    normalized by the running statistics, passed through the MLP (swish between layers)
+    and the first half of its output (the Gaussian's mean) through tanh. For the `cpg`
+    action space the policy steps its own CPG row (`reset()` before each episode), as the
+    MJX env does.
+    """
+
+    def __init__(self, arrays: dict[str, np.ndarray], action_space: str):
+        """Args:
+          arrays: `mean`, `std` and `kernel_<i>`, `bias_<i>` for each layer.
+          action_space: "joints" or "cpg".
+
+        Raises:
+          ValueError: On an unknown action space or missing layers.
+        """
+        if action_space not in ACTION_SPACES:
+            raise ValueError(f"action_space must be one of {ACTION_SPACES}, got {action_space!r}")
+        self.action_space = action_space
+        self.mean = np.asarray(arrays["mean"], np.float64)
+        self.std = np.asarray(arrays["std"], np.float64)
+        n = sum(1 for k in arrays if k.startswith("kernel_"))
+        if n == 0:
+            raise ValueError("the policy has no layers (kernel_0 ...)")
+        self.layers = [
+            (np.asarray(arrays[f"kernel_{i}"], np.float64), np.asarray(arrays[f"bias_{i}"]))
+            for i in range(n)
+        ]
+        self.cpg, self._physics = None, None
+        if action_space == "cpg":
+            self.cpg = residual.ModulatedCPG(1)
+            self._physics = cpg_suite.load("darwin_walk").physics  # its joint ranges
+
+    @classmethod
+    def load(cls, path: str) -> NumpyPolicy:
+        """A policy saved by `save`."""
+        with np.load(path) as data:
+            arrays = {k: data[k] for k in data.files}
+        return cls(arrays, str(arrays.pop("action_space")))
+
+    def save(self, path: str) -> None:
+        """Writes the policy to `path` (.npz), atomically."""
+        arrays = {"mean": self.mean, "std": self.std, "action_space": np.array(self.action_space)}
+        for i, (kernel, bias) in enumerate(self.layers):
+            arrays[f"kernel_{i}"], arrays[f"bias_{i}"] = kernel, bias
+        buffer = io.BytesIO()
+        np.savez(buffer, **arrays)
+        runs.write_bytes(path, buffer.getvalue())
+
+    def reset(self) -> None:
+        """Restarts the policy's CPG (before each episode)."""
+        if self.cpg is not None:
+            self.cpg.reset()
+
+    def act(self, features: np.ndarray) -> np.ndarray:
+        """Actions in [−1, 1] for (N, D) flat observations."""
+        x = (np.asarray(features, np.float64) - self.mean) / self.std
+        for i, (kernel, bias) in enumerate(self.layers):
+            x = x @ kernel + bias
+            if i < len(self.layers) - 1:
+                x = x / (1.0 + np.exp(-x))  # swish
+        return np.tanh(x[..., : x.shape[-1] // 2])
+
+    def __call__(self, observation: dict) -> np.ndarray:
+        parts = [np.ravel(observation[k]) for k in mjx_walk.OBSERVATION_KEYS]
+        if self.cpg is not None:
+            parts.append(self.cpg.phase_features()[0])
+        action = self.act(np.concatenate(parts)[None])
+        if self.cpg is None:
+            return action[0]
+        return residual.joint_actions(action, self.cpg, self._physics, darwin.CONTROL_TIMESTEP)[0]
+
+
+def export_policy(params, action_space: str) -> NumpyPolicy:
+    """The NumPy form of Brax PPO's `(normalizer, policy, value)` parameters.
+
+    Args:
+      params: The parameters Brax's `ppo.train` returns (or hands to `policy_params_fn`).
+      action_space: "joints" or "cpg".
+
+    Returns:
+      The policy.
+    """
+    normalizer, policy = params[0], params[1]
+    dense = policy["params"]
+    arrays = {"mean": np.asarray(normalizer.mean), "std": np.asarray(normalizer.std)}
+    for i in range(len(dense)):
+        arrays[f"kernel_{i}"] = np.asarray(dense[f"hidden_{i}"]["kernel"])
+        arrays[f"bias_{i}"] = np.asarray(dense[f"hidden_{i}"]["bias"])
+    return NumpyPolicy(arrays, action_space)
+
+
+def validate(policy: NumpyPolicy, settings: PPOMJXSettings) -> tuple[float, float, int]:
+    """The policy on the CPU task, first `validation_seeds` validation seeds of the tier.
+
+    Returns:
+      (success-weighted distance, m; fall rate; physics steps of the trials).
+    """
+    trials = [
+        score.policy_trial(policy, settings.task, seed, settings.trial_steps)
+        for seed in protocol.validation_seeds(settings.validation_seeds)
+    ]
+    fell = np.array([t["fell"] for t in trials])
+    distance = np.where(fell, 0.0, [t["distance_m"] for t in trials])
+    return float(distance.mean()), float(fell.mean()), sum(t["sim_steps"] for t in trials)
+
+
+# Training.
+def brax_train_kwargs(settings: PPOMJXSettings) -> dict:
+    """Brax `ppo.train`'s keyword arguments for the settings (without env and callbacks)."""
+    from brax.training.agents.ppo import networks as ppo_networks
+
+    from cpg_suite.mjx import training
+
+    return dict(
+        num_timesteps=settings.total_steps,
+        num_evals=settings.num_evals,
+        run_evals=False,  # selection runs on the CPU reference
+        episode_length=settings.trial_steps,
+        num_envs=settings.num_envs,
+        unroll_length=settings.unroll_length,
+        batch_size=settings.batch_size,
+        num_minibatches=settings.num_minibatches,
+        num_updates_per_batch=settings.num_updates_per_batch,
+        learning_rate=settings.learning_rate,
+        entropy_cost=settings.entropy_cost,
+        discounting=settings.discounting,
+        gae_lambda=settings.gae_lambda,
+        clipping_epsilon=settings.clipping_epsilon,
+        reward_scaling=settings.reward_scaling,
+        max_grad_norm=settings.max_grad_norm,
+        normalize_observations=True,
+        seed=settings.seed,
+        wrap_env_fn=training.wrap_for_training,
+        network_factory=functools.partial(
+            ppo_networks.make_ppo_networks,
+            policy_hidden_layer_sizes=settings.policy_layers,
+            value_hidden_layer_sizes=settings.value_layers,
+        ),
+    )
+
+
+@dataclasses.dataclass
+class _Run:
+    """What the callbacks of one training call update."""
+
+    run_dir: str
+    settings: PPOMJXSettings
+    log: Callable[[str], None]
+    start_steps: int  # env steps done before this training call (resume)
+    best: dict | None
+    rows: list
+    validation_sim_steps: int = 0
+    clock: float = dataclasses.field(default_factory=time.perf_counter)
+    train_wall_s: float = 0.0
+    resumed: bool = False  # Brax's first call then hands back the checkpoint's parameters
+
+    def on_params(self, current_step: int, make_policy, params) -> None:
+        """Brax's `policy_params_fn`: validate on the CPU, keep the best, checkpoint."""
+        del make_policy
+        self.train_wall_s += time.perf_counter() - self.clock
+        if self.resumed and int(current_step) == 0:  # validated before the run stopped
+            self.clock = time.perf_counter()
+            return
+        steps = self.start_steps + int(current_step)
+        policy = export_policy(params, self.settings.action_space)
+        validation_m, fall_rate, sim_steps = validate(policy, self.settings)
+        self.validation_sim_steps += sim_steps
+        if self.best is None or validation_m > self.best["validation_m"]:
+            policy.save(os.path.join(self.run_dir, "selected_policy.npz"))
+            self.best = {"env_steps": steps, "validation_m": validation_m, "fall_rate": fall_rate}
+        row = {
+            "env_steps": steps,
+            "validation_m": validation_m,
+            "validation_fall_rate": fall_rate,
+            "best_validation_m": self.best["validation_m"],
+            "train_wall_s": round(self.train_wall_s, 3),
+            "steps_per_s": round(steps / self.train_wall_s, 1) if self.train_wall_s else 0.0,
+        }
+        self.rows.append(row)
+        runs.write_rows_csv(os.path.join(self.run_dir, "progress.csv"), self.rows)
+        checkpoint = {
+            "settings": dataclasses.asdict(self.settings),
+            "env_steps": steps,
+            "params": _to_numpy(params),
+            "best": self.best,
+            "rows": self.rows,
+            "validation_sim_steps": self.validation_sim_steps,
+            "train_wall_s": self.train_wall_s,
+        }
+        runs.write_bytes(os.path.join(self.run_dir, "checkpoint.pkl"), pickle.dumps(checkpoint))
+        self.log(
+            f"{steps:>12,} env steps  validation {validation_m:+.3f} m, falls {fall_rate:.0%}"
+            f"  (best {self.best['validation_m']:+.3f} m)  train {self.train_wall_s:.0f} s"
+        )
+        self.clock = time.perf_counter()
+
+
+def _to_numpy(tree):
+    import jax
+
+    return jax.tree.map(np.asarray, tree)
+
+
+def device_name() -> str:
+    """The JAX device that trains (e.g. "gpu (NVIDIA H100 80GB HBM3)", or "cpu")."""
+    import jax
+
+    device = jax.devices()[0]
+    kind = getattr(device, "device_kind", device.platform)
+    return kind if kind == device.platform else f"{device.platform} ({kind})"
+
+
+def train(settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], resume: bool):
+    """Trains with Brax's PPO, validating and checkpointing on the CPU as it goes.
+
+    Returns:
+      The run's `_Run` record (best policy, progress rows, validation and wall time).
+    """
+    from brax.training.agents.ppo import train as brax_ppo
+
+    from cpg_suite.mjx import training
+
+    state = _resume_state(run_dir, settings) if resume else None
+    record = _Run(
+        run_dir=run_dir,
+        settings=settings,
+        log=log,
+        start_steps=state["env_steps"] if state else 0,
+        best=state["best"] if state else None,
+        rows=state["rows"] if state else [],
+        validation_sim_steps=state["validation_sim_steps"] if state else 0,
+        train_wall_s=state["train_wall_s"] if state else 0.0,
+        resumed=state is not None,
+    )
+    remaining = settings.total_steps - record.start_steps
+    if remaining <= 0:
+        return record
+    kwargs = brax_train_kwargs(settings)
+    if state:  # a fresh stream of draws for the remaining steps
+        kwargs.update(
+            num_timesteps=remaining,
+            num_evals=math.ceil(remaining / settings.validation_every) + 1,
+            seed=settings.seed + 1_000_003 * (len(state["rows"])),
+            restore_params=state["params"],
+        )
+    env = training.BraxWalkEnv(mjx_walk.WalkEnv(settings.task, settings.action_space))
+    record.clock = time.perf_counter()
+    brax_ppo.train(env, policy_params_fn=record.on_params, **kwargs)
+    return record
+
+
+def _resume_state(run_dir: str, settings: PPOMJXSettings) -> dict | None:
+    path = os.path.join(run_dir, "checkpoint.pkl")
+    if not os.path.exists(path):
+        return None
+    with open(path, "rb") as f:
+        state = pickle.load(f)
+    if state.get("settings") != dataclasses.asdict(settings):
+        raise cli.UsageError(f"{path} was written by other settings; pass --overwrite")
+    return state
+
+
+def run(
+    settings: PPOMJXSettings,
+    options: runs.RunOptions | None = None,
+    log: Callable[[str], None] = progress.write,
+) -> tuple[str, dict]:
+    """Trains on MJX, selects on the CPU task and scores on the CPU test protocol.
+
+    Args:
+      settings: The run's settings.
+      options: Output directory, run name (default `default_run_name(settings)`), resume,
+        overwrite (threads and backend unused).
+      log: Receives a line per validation.
+
+    Returns:
+      `(run_dir, summary)`; the summary holds the test score card unless `test_seeds` = 0.
+
+    Raises:
+      runs.RunDirectoryExists: The run directory holds a run and neither resume nor
+        overwrite was asked.
+    """
+    options = options or runs.RunOptions()
+    run_dir = runs.run_directory(
+        options.output_dir,
+        METHOD,
+        settings.task,
+        options.run_name or default_run_name(settings),
+        overwrite=options.overwrite,
+        resume=options.resume,
+    )
+    runs.write_config(
+        run_dir, settings, runs.command_line("baselines.ppo_mjx", dataclasses.asdict(settings))
+    )
+    record = train(settings, run_dir, log, options.resume)
+    summary = _summary(settings, record)
+    if settings.test_seeds:
+        policy = NumpyPolicy.load(os.path.join(run_dir, "selected_policy.npz"))
+        card, trials = score.score_policy_trials(
+            policy,
+            score.ScoreSettings(
+                tiers=settings.test_tiers, seeds=settings.test_seeds, steps=settings.trial_steps
+            ),
+        )
+        log(score.format_card(card))
+        summary["test"] = {k: card[k] for k in ("tiers", "all", "scoring_sim_steps")}
+        runs.write_rows_csv(os.path.join(run_dir, "test_trials.csv"), trials)
+    runs.write_json(os.path.join(run_dir, "summary.json"), summary)
+    return run_dir, summary
+
+
+def _summary(settings: PPOMJXSettings, record: _Run) -> dict:
+    best, last = record.best, record.rows[-1]
+    return {
+        "action_space": settings.action_space,
+        "env_steps": last["env_steps"],
+        "sim_steps": last["env_steps"] * 8,  # 8 MJX physics steps per control step
+        "validation_sim_steps": record.validation_sim_steps,
+        "train_wall_s": record.train_wall_s,
+        "device": device_name(),
+        "selected": {
+            "source": f"env_steps_{best['env_steps']}",
+            "env_steps": best["env_steps"],
+            "validation_success_weighted_m": best["validation_m"],
+            "validation_fall_rate": best["fall_rate"],
+            "validation_seeds": settings.validation_seeds,
+        },
+    }
+
+
+def summary_line(run_dir: str, summary: dict) -> str:
+    """One line describing a finished run."""
+    line = (
+        f"{run_dir}: {summary['env_steps']:,} env steps in {summary['train_wall_s']:.0f} s on "
+        f"{summary['device']}, selected at {summary['selected']['env_steps']:,} (validation "
+        f"{summary['selected']['validation_success_weighted_m']:+.3f} m)"
+    )
+    if "test" in summary:
+        line += "; test score " + score.score_text(summary["test"]["all"])
+    return line
+
+
+# Command line.
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    d = PPOMJXSettings()
+    flags.DEFINE_string("task", d.task, f"Training tier: {', '.join(TASKS)}.")
+    flags.DEFINE_string("action_space", d.action_space, f"One of {', '.join(ACTION_SPACES)}.")
+    flags.DEFINE_integer("total_steps", d.total_steps, "Training env steps.")
+    flags.DEFINE_integer("num_envs", d.num_envs, "Environments stepped together.")
+    flags.DEFINE_integer("seed", d.seed, "Seed of the networks, sampling and episode draws.")
+    flags.DEFINE_integer("trial_steps", d.trial_steps, "Control steps per episode (1000 = 16 s).")
+    flags.DEFINE_integer(
+        "validation_every", d.validation_every, "Env steps between CPU validations."
+    )
+    flags.DEFINE_integer("validation_seeds", d.validation_seeds, "Validation seeds.")
+    flags.DEFINE_integer("test_seeds", d.test_seeds, "Test seeds per tier (0: no score card).")
+    flags.DEFINE_list("test_tiers", list(d.test_tiers), "Tiers of the final score card.")
+    for name in ("unroll_length", "batch_size", "num_minibatches", "num_updates_per_batch"):
+        flags.DEFINE_integer(name, getattr(d, name), f"Brax PPO: {name}.")
+    for name in (
+        "learning_rate",
+        "entropy_cost",
+        "discounting",
+        "gae_lambda",
+        "clipping_epsilon",
+        "reward_scaling",
+        "max_grad_norm",
+    ):
+        flags.DEFINE_float(name, getattr(d, name), f"Brax PPO: {name}.")
+    flags.DEFINE_list("policy_layers", [str(v) for v in d.policy_layers], "Policy hidden layers.")
+    flags.DEFINE_list("value_layers", [str(v) for v in d.value_layers], "Value hidden layers.")
+    o = runs.RunOptions()
+    flags.DEFINE_string("output_dir", o.output_dir, "Root of the output tree.")
+    flags.DEFINE_string("run_name", o.run_name, "Run directory name (default from settings).")
+    flags.DEFINE_bool("resume", o.resume, "Continue the run from its checkpoint.")
+    flags.DEFINE_bool("overwrite", o.overwrite, "Replace an existing run directory.")
+
+
+def main(argv: list[str]) -> None:
+    """Trains on MJX and scores on the CPU as the flags say; prints a summary line."""
+    del argv
+    settings = cli.settings_from_flags(PPOMJXSettings)
+    options = cli.settings_from_flags(runs.RunOptions)
+    try:
+        run_dir, summary = run(settings, options)
+    except runs.RunDirectoryExists as e:
+        raise cli.UsageError(f"{e} (or --resume to continue it)") from None
+    progress.write(summary_line(run_dir, summary))
+
+
+if __name__ == "__main__":
+    define_flags()
+    cli.run(main, output_dirs=("output_dir",))

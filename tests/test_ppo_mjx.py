@@ -1,0 +1,228 @@
+"""PPO on MJX (baselines.ppo_mjx): the exported policy is Brax's, the training wrapper draws
+each episode afresh, validation runs on the CPU task, bad input stops the CLI.
+
+A full training run compiles Brax's update with the MJX walker (minutes on 2 CPU cores);
+it is run by hand (README, "Training on a GPU"), not here.
+"""
+
+import dataclasses
+import os
+import pickle
+import subprocess
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from brax.envs import base as brax_base
+from brax.training.acme import running_statistics
+from brax.training.agents.ppo import networks as ppo_networks
+
+from baselines import ppo_mjx
+from cpg_suite import cli
+from cpg_suite.mjx import training
+from cpg_suite.mjx import walk as mjx_walk
+
+
+def _brax_params(obs_size: int, layers=(16, 16), seed: int = 0):
+    """Brax PPO networks and parameters, the normalizer fed with data of scale ≠ 1."""
+    nets = ppo_networks.make_ppo_networks(
+        obs_size,
+        12,
+        preprocess_observations_fn=running_statistics.normalize,
+        policy_hidden_layer_sizes=layers,
+        value_hidden_layer_sizes=layers,
+    )
+    key = jax.random.key(seed)
+    k_pi, k_v, k_obs = jax.random.split(key, 3)
+    normalizer = running_statistics.init_state(jax.ShapeDtypeStruct((obs_size,), jnp.float32))
+    data = 3.0 + 2.0 * jax.random.normal(k_obs, (256, obs_size))
+    normalizer = running_statistics.update(normalizer, data)
+    params = (normalizer, nets.policy_network.init(k_pi), nets.value_network.init(k_v))
+    return nets, params
+
+
+def test_numpy_policy_is_brax_deterministic_policy(tmp_path):
+    obs_size = 62
+    nets, params = _brax_params(obs_size)
+    brax_policy = ppo_networks.make_inference_fn(nets)(params, deterministic=True)
+    obs = 3.0 + 2.0 * np.random.default_rng(1).standard_normal((32, obs_size))
+    expected, _ = brax_policy(jnp.asarray(obs, jnp.float32), jax.random.key(0))
+    policy = ppo_mjx.export_policy(params, "joints")
+    np.testing.assert_allclose(policy.act(obs), np.asarray(expected), atol=2e-5)
+    path = str(tmp_path / "policy.npz")
+    policy.save(path)
+    loaded = ppo_mjx.NumpyPolicy.load(path)
+    assert loaded.action_space == "joints" and len(loaded.layers) == 3
+    np.testing.assert_array_equal(loaded.act(obs), policy.act(obs))
+
+
+@pytest.mark.parametrize("action_space", ["joints", "cpg"])
+def test_exported_policy_reads_the_cpu_task_as_the_mjx_env_is_read(action_space):
+    env = mjx_walk.WalkEnv("darwin_walk", action_space)
+    _, params = _brax_params(env.observation_size)
+    policy = ppo_mjx.export_policy(params, action_space)
+    assert policy.mean.shape == (env.observation_size,)
+    trial = ppo_mjx.score.policy_trial(policy, "darwin_walk", seed=2_000_000, steps=5)
+    assert trial["sim_steps"] == 5 * env.n_substeps and np.isfinite(trial["distance_m"])
+
+
+class _Draws(brax_base.Env):
+    """Each episode draws u ~ U(0, 1) and a length k in {1, 2, 3}; obs = (u, t)."""
+
+    def reset(self, rng):
+        k_u, k_len = jax.random.split(rng)
+        u = jax.random.uniform(k_u)
+        k = jax.random.randint(k_len, (), 1, 4)
+        return brax_base.State(
+            pipeline_state={"u": u, "k": k, "t": jnp.zeros((), jnp.int32)},
+            obs=jnp.stack([u, 0.0]),
+            reward=jnp.zeros(()),
+            done=jnp.zeros(()),
+        )
+
+    def step(self, state, action):
+        s = dict(state.pipeline_state, t=state.pipeline_state["t"] + 1)
+        done = (s["t"] >= s["k"]).astype(jnp.float32)
+        return state.replace(pipeline_state=s, obs=jnp.stack([s["u"], s["t"] * 1.0]), done=done)
+
+    observation_size = 2
+    action_size = 1
+    backend = "toy"
+
+
+def test_fresh_reset_wrapper_draws_each_episode_afresh():
+    env = training.wrap_for_training(_Draws(), episode_length=100)
+    keys = jax.random.split(jax.random.key(0), 64)
+    state = jax.jit(env.reset)(jax.random.key_data(keys))
+    first_u, k = np.asarray(state.pipeline_state["u"]), np.asarray(state.pipeline_state["k"])
+    step = jax.jit(env.step)
+    state = step(state, jnp.zeros((64, 1)))
+    done = np.asarray(state.done) > 0
+    assert done.any() and not done.all()
+    np.testing.assert_array_equal(done, k == 1)
+    u, t = np.asarray(state.pipeline_state["u"]), np.asarray(state.pipeline_state["t"])
+    assert np.all(u[done] != first_u[done]) and np.all(t[done] == 0)  # a new episode
+    assert np.all(u[~done] == first_u[~done]) and np.all(t[~done] == 1)  # the same one
+    np.testing.assert_array_equal(np.asarray(state.obs)[:, 0], u)
+    np.testing.assert_array_equal(np.asarray(state.info["steps"])[~done], 1)
+
+
+def test_time_limit_is_a_truncation():
+    env = training.wrap_for_training(_Draws(), episode_length=1)
+    state = env.reset(jax.random.key_data(jax.random.split(jax.random.key(1), 16)))
+    k = np.asarray(state.pipeline_state["k"])
+    state = env.step(state, jnp.zeros((16, 1)))
+    assert np.all(np.asarray(state.done) == 1)
+    np.testing.assert_array_equal(np.asarray(state.info["truncation"]), (k > 1).astype(float))
+
+
+def _settings(**kw):
+    base = dict(
+        num_envs=4,
+        batch_size=4,
+        num_minibatches=2,
+        unroll_length=5,
+        total_steps=80,
+        validation_every=40,
+        validation_seeds=2,
+        trial_steps=10,
+        test_seeds=1,
+        test_tiers=("darwin_walk",),
+        policy_layers=(8,),
+        value_layers=(8,),
+    )
+    return ppo_mjx.PPOMJXSettings(**{**base, **kw})
+
+
+def test_validation_keeps_the_best_policy_and_checkpoints(tmp_path):
+    settings = _settings()
+    env = mjx_walk.WalkEnv("darwin_walk", "joints")
+    record = ppo_mjx._Run(str(tmp_path), settings, lambda line: None, 0, None, [])
+    _, better = _brax_params(env.observation_size, layers=(8,), seed=0)
+    _, other = _brax_params(env.observation_size, layers=(8,), seed=1)
+    scores = [
+        ppo_mjx.validate(ppo_mjx.export_policy(p, "joints"), settings) for p in (better, other)
+    ]
+    if scores[1][0] > scores[0][0]:
+        better, other = other, better
+    record.on_params(0, None, better)
+    record.on_params(40, None, other)
+    best = ppo_mjx.NumpyPolicy.load(str(tmp_path / "selected_policy.npz"))
+    np.testing.assert_array_equal(
+        best.layers[0][0], ppo_mjx.export_policy(better, "joints").layers[0][0]
+    )
+    assert record.best["env_steps"] == 0 and [r["env_steps"] for r in record.rows] == [0, 40]
+    with open(tmp_path / "checkpoint.pkl", "rb") as f:
+        checkpoint = pickle.load(f)
+    assert checkpoint["env_steps"] == 40 and checkpoint["settings"] == dataclasses.asdict(settings)
+    assert checkpoint["validation_sim_steps"] == record.validation_sim_steps > 0
+    assert os.path.exists(tmp_path / "progress.csv")
+    assert ppo_mjx._resume_state(str(tmp_path), settings)["env_steps"] == 40
+    resumed = ppo_mjx._Run(str(tmp_path), settings, lambda line: None, 40, None, [], resumed=True)
+    resumed.on_params(0, None, other)  # Brax hands back the checkpoint's parameters first
+    assert resumed.rows == [] and resumed.best is None
+    with pytest.raises(cli.UsageError, match="other settings"):
+        ppo_mjx._resume_state(str(tmp_path), _settings(seed=1))
+
+
+@pytest.mark.parametrize(
+    "kw, words",
+    [
+        (dict(task="darwin_walk_rough"), "--task"),
+        (dict(action_space="torques"), "--action_space"),
+        (dict(num_envs=3), "must divide"),
+        (dict(policy_layers=("a",)), "--policy_layers"),
+        (dict(discounting=0.0), "--discounting"),
+        (dict(test_tiers=("nowhere",)), "--test_tiers"),
+    ],
+)
+def test_settings_reject_bad_values(kw, words):
+    with pytest.raises(ValueError, match=words):
+        _settings(**kw)
+
+
+def test_cli_bad_input_is_one_line_exit_2(tmp_path):
+    out = subprocess.run(
+        [sys.executable, "-m", "baselines.ppo_mjx", "--num_envs=3", f"--output_dir={tmp_path}"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert out.returncode == 2, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "--num_envs" in lines[0]
+    assert not os.listdir(tmp_path)
+
+
+def _time_to_target(*args):
+    script = os.path.join(
+        os.path.dirname(__file__), "..", "benchmarks", "ppo_mjx_time_to_target.py"
+    )
+    return subprocess.run(
+        [sys.executable, script, *args], capture_output=True, text=True, timeout=300
+    )
+
+
+def test_time_to_target_reads_the_first_validation_at_the_target(tmp_path):
+    rows = [
+        (0, -0.1, 40.0),
+        (500_000, 2.5, 300.0),
+        (1_000_000, 4.0, 560.0),
+        (1_500_000, 3.0, 800.0),
+    ]
+    lines = ["env_steps,validation_m,train_wall_s"] + [f"{a},{b},{c}" for a, b, c in rows]
+    (tmp_path / "progress.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "summary.json").write_text('{"device": "gpu (NVIDIA H100)"}')
+    reference = tmp_path / "cpu"
+    reference.mkdir()
+    (reference / "summary.json").write_text('{"selected": {"validation_success_weighted_m": 3.2}}')
+    out = _time_to_target(f"--run={tmp_path}", f"--reference={reference}")
+    assert out.returncode == 0, out.stderr
+    assert "reached at 1,000,000 env steps after 560 s" in out.stdout
+    assert "gpu (NVIDIA H100)" in out.stdout
+    out = _time_to_target(f"--run={tmp_path}", "--target=4.5")
+    assert "not reached (best validation +4.000 m)" in out.stdout
+    out = _time_to_target(f"--run={tmp_path / 'nowhere'}", "--target=1")
+    assert out.returncode == 2 and out.stderr.strip().startswith("error: ")
