@@ -53,7 +53,7 @@ from cpg_suite.protocol import score
 
 METHOD = "ppo"  # its run directories' second level and its leaderboard rows
 TASKS = protocol.TIERS
-ACTION_SPACES = ("joints", "cpg")
+ACTION_SPACES = residual.ACTION_SPACES
 
 
 @dataclasses.dataclass(frozen=True)

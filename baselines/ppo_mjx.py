@@ -39,7 +39,6 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
 import dataclasses
 import functools
-import io
 import math
 import os
 import pickle
@@ -49,9 +48,10 @@ from collections.abc import Callable
 import numpy as np
 from absl import flags
 
-import cpg_suite
-from cpg_suite import cli, darwin, progress, protocol, residual
+from cpg_suite import cli, progress, protocol
 from cpg_suite.harness import runs
+from cpg_suite.harness.exported import FILE as POLICY_FILE
+from cpg_suite.harness.exported import NumpyPolicy
 from cpg_suite.mjx import walk as mjx_walk
 from cpg_suite.protocol import score
 
@@ -180,82 +180,6 @@ def default_run_name(settings: PPOMJXSettings) -> str:
 
 
 # The exported policy.
-class NumpyPolicy:
-    """A Brax PPO policy exported to NumPy, run in the CPU task (no JAX needed).
-
-    The deterministic action of Brax's tanh-Gaussian policy: the observation (the MJX
-    env's vector: `cpg_suite.mjx.OBSERVATION_KEYS`, plus the CPG phase for `cpg`) is
-    normalized by the running statistics, passed through the MLP (swish between layers)
-    and the first half of its output (the Gaussian's mean) through tanh. For the `cpg`
-    action space the policy steps its own CPG row (`reset()` before each episode), as the
-    MJX env does.
-    """
-
-    def __init__(self, arrays: dict[str, np.ndarray], action_space: str):
-        """Args:
-          arrays: `mean`, `std` and `kernel_<i>`, `bias_<i>` for each layer.
-          action_space: "joints" or "cpg".
-
-        Raises:
-          ValueError: On an unknown action space or missing layers.
-        """
-        if action_space not in ACTION_SPACES:
-            raise ValueError(f"action_space must be one of {ACTION_SPACES}, got {action_space!r}")
-        self.action_space = action_space
-        self.mean = np.asarray(arrays["mean"], np.float64)
-        self.std = np.asarray(arrays["std"], np.float64)
-        n = sum(1 for k in arrays if k.startswith("kernel_"))
-        if n == 0:
-            raise ValueError("the policy has no layers (kernel_0 ...)")
-        self.layers = [
-            (np.asarray(arrays[f"kernel_{i}"], np.float64), np.asarray(arrays[f"bias_{i}"]))
-            for i in range(n)
-        ]
-        self.cpg, self._physics = None, None
-        if action_space == "cpg":
-            self.cpg = residual.ModulatedCPG(1)
-            self._physics = cpg_suite.load("darwin_walk").physics  # its joint ranges
-
-    @classmethod
-    def load(cls, path: str) -> NumpyPolicy:
-        """A policy saved by `save`."""
-        with np.load(path) as data:
-            arrays = {k: data[k] for k in data.files}
-        return cls(arrays, str(arrays.pop("action_space")))
-
-    def save(self, path: str) -> None:
-        """Writes the policy to `path` (.npz), atomically."""
-        arrays = {"mean": self.mean, "std": self.std, "action_space": np.array(self.action_space)}
-        for i, (kernel, bias) in enumerate(self.layers):
-            arrays[f"kernel_{i}"], arrays[f"bias_{i}"] = kernel, bias
-        buffer = io.BytesIO()
-        np.savez(buffer, **arrays)
-        runs.write_bytes(path, buffer.getvalue())
-
-    def reset(self) -> None:
-        """Restarts the policy's CPG (before each episode)."""
-        if self.cpg is not None:
-            self.cpg.reset()
-
-    def act(self, features: np.ndarray) -> np.ndarray:
-        """Actions in [−1, 1] for (N, D) flat observations."""
-        x = (np.asarray(features, np.float64) - self.mean) / self.std
-        for i, (kernel, bias) in enumerate(self.layers):
-            x = x @ kernel + bias
-            if i < len(self.layers) - 1:
-                x = x / (1.0 + np.exp(-x))  # swish
-        return np.tanh(x[..., : x.shape[-1] // 2])
-
-    def __call__(self, observation: dict) -> np.ndarray:
-        parts = [np.ravel(observation[k]) for k in mjx_walk.OBSERVATION_KEYS]
-        if self.cpg is not None:
-            parts.append(self.cpg.phase_features()[0])
-        action = self.act(np.concatenate(parts)[None])
-        if self.cpg is None:
-            return action[0]
-        return residual.joint_actions(action, self.cpg, self._physics, darwin.CONTROL_TIMESTEP)[0]
-
-
 def export_policy(params, action_space: str) -> NumpyPolicy:
     """The NumPy form of Brax PPO's `(normalizer, policy, value)` parameters.
 
@@ -352,7 +276,7 @@ class _Run:
         validation_m, fall_rate, sim_steps = validate(policy, self.settings)
         self.validation_sim_steps += sim_steps
         if self.best is None or validation_m > self.best["validation_m"]:
-            policy.save(os.path.join(self.run_dir, "selected_policy.npz"))
+            policy.save(os.path.join(self.run_dir, POLICY_FILE))
             self.best = {"env_steps": steps, "validation_m": validation_m, "fall_rate": fall_rate}
         row = {
             "env_steps": steps,
@@ -481,7 +405,7 @@ def run(
     record = train(settings, run_dir, log, options.resume)
     summary = _summary(settings, record)
     if settings.test_seeds:
-        policy = NumpyPolicy.load(os.path.join(run_dir, "selected_policy.npz"))
+        policy = NumpyPolicy.load(os.path.join(run_dir, POLICY_FILE))
         card, trials = score.score_policy_trials(
             policy,
             score.ScoreSettings(

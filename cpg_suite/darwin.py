@@ -73,6 +73,18 @@ ARM_JOINTS = (
 ARM_POSE = np.array([0.0, 0.61, 1.05, 0.0, -0.61, -1.05, 0.0, 0.70])
 
 OBJECTIVES = ("walk", "balance")
+# The task's observation, in the order `CPGTask.get_observation` returns it (the order a
+# flat observation vector takes: the MJX env's, the SB3 adapter's, exported policies').
+OBSERVATION_KEYS = (
+    "joint_angles",
+    "joint_velocities",
+    "torso_orientation",
+    "torso_height",
+    "torso_velocity",
+    "gyro",
+    "accelerometer",
+    "foot_touch",
+)
 SUITE = containers.TaggedTasks()
 
 

@@ -31,6 +31,8 @@ from cpg_suite import cpg, darwin
 AMPLITUDE_SCALE = 10.0  # degrees of amplitude correction per unit action
 RATE_SCALE = 0.5  # phase rate ω (1 + RATE_SCALE · a), a in [−1, 1]: 0.5 ω .. 1.5 ω
 N_ACTIONS = cpg.N_AMPLITUDES + 1
+# A walking policy's action spaces: the task's 12 joint targets, or this module's CPG modulation.
+ACTION_SPACES = ("joints", "cpg")
 PHASE_KEY = "cpg_phase"
 
 

@@ -226,3 +226,41 @@ def test_time_to_target_reads_the_first_validation_at_the_target(tmp_path):
     assert "not reached (best validation +4.000 m)" in out.stdout
     out = _time_to_target(f"--run={tmp_path / 'nowhere'}", "--target=1")
     assert out.returncode == 2 and out.stderr.strip().startswith("error: ")
+
+
+def test_an_exported_policy_run_ships_and_verifies(tmp_path):
+    """A run with `selected_policy.npz` ships and re-scores bit for bit, like an SB3 run."""
+    from cpg_suite.harness import runs
+    from cpg_suite.protocol import score, verify
+
+    settings = _settings(test_seeds=2, trial_steps=10)
+    run_dir = tmp_path / "runs" / "ppo_mjx" / "darwin_walk" / "joints_seed0"
+    run_dir.mkdir(parents=True)
+    env = mjx_walk.WalkEnv("darwin_walk", "joints")
+    _, params = _brax_params(env.observation_size, layers=(8,))
+    policy = ppo_mjx.export_policy(params, "joints")
+    policy.save(str(run_dir / "selected_policy.npz"))
+    (run_dir / "progress.csv").write_text("env_steps,validation_m\n0,0.0\n")
+    runs.write_config(str(run_dir), settings, "python -m baselines.ppo_mjx")
+    card, _ = score.score_policy_trials(
+        policy, score.ScoreSettings(tiers=("darwin_walk",), seeds=2, steps=10)
+    )
+    runs.write_json(
+        str(run_dir / "summary.json"),
+        {"test": {k: card[k] for k in ("tiers", "all", "scoring_sim_steps")}},
+    )
+    shipped = tmp_path / "shipped"
+    assert verify.ship_all(str(tmp_path / "runs"), str(shipped), log=lambda line: None) == 1
+    dest = shipped / "ppo_mjx" / "darwin_walk" / "joints_seed0"
+    assert sorted(os.listdir(dest)) == [
+        "config.json",
+        "progress.csv",
+        "selected_policy.npz",
+        "summary.json",
+        "trials.csv",
+        "versions.json",
+    ]
+    assert verify.verify(str(shipped), log=lambda line: None) == 0
+    other = ppo_mjx.export_policy(_brax_params(env.observation_size, (8,), seed=3)[1], "joints")
+    other.save(str(dest / "selected_policy.npz"))  # a different policy: verify must see it
+    assert verify.verify_run(str(dest)) != []

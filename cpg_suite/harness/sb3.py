@@ -47,16 +47,7 @@ ALGORITHMS = {"ppo": "PPO"}
 
 # The flattened observation: these keys of the task's observation, in this order (then the
 # CPG phase for the cpg action space).
-OBS_KEYS = (
-    "joint_angles",
-    "joint_velocities",
-    "torso_orientation",
-    "torso_height",
-    "torso_velocity",
-    "gyro",
-    "accelerometer",
-    "foot_touch",
-)
+OBS_KEYS = darwin.OBSERVATION_KEYS
 
 
 class EnvSettings(Protocol):

@@ -45,17 +45,8 @@ from cpg_suite import cpg, darwin, perturbations, residual
 from cpg_suite.mjx import modulated, physics, setconst
 
 TASKS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push")
-ACTION_SPACES = ("joints", "cpg")
-OBSERVATION_KEYS = (
-    "joint_angles",
-    "joint_velocities",
-    "torso_orientation",
-    "torso_height",
-    "torso_velocity",
-    "gyro",
-    "accelerometer",
-    "foot_touch",
-)
+ACTION_SPACES = residual.ACTION_SPACES
+OBSERVATION_KEYS = darwin.OBSERVATION_KEYS
 OBSERVATION_SIZES = {k: n for k, n in zip(OBSERVATION_KEYS, (12, 12, 4, 1, 3, 3, 3, 2))}
 PHASE_SIZE = 2  # cos φ_L, sin φ_L appended in the `cpg` action space.
 EPISODE_STEPS = int(round(darwin.DEFAULT_TIME_LIMIT / darwin.CONTROL_TIMESTEP))  # 1000

@@ -14,7 +14,8 @@ behind its leaderboard row (docs/protocol.md#shipped-artifacts):
   * `selected_params.json`: the gait the run reports (amplitudes, or feedback parameters),
     with `best_params.json` (its best training trial's gait, in-sample) and `progress.csv`
     (its rounds); or, for a policy learner, `selected_model.zip` and
-    `selected_vecnormalize.pkl` (the SB3 model and its observation normalizer) and
+    `selected_vecnormalize.pkl` (the SB3 model and its observation normalizer), or
+    `selected_policy.npz` (a policy exported to NumPy, `cpg_suite.harness.exported`), and
     `progress.csv` (its learning curve);
   * `trials.csv`: the card's trials, one row per tier and test seed (`score.TRIAL_FIELDS`);
   * `versions.json`: the versions it was made with and those it was scored with here.
@@ -47,7 +48,7 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, cpg, feedback, progress, protocol
-from cpg_suite.harness import runs
+from cpg_suite.harness import exported, runs
 from cpg_suite.protocol import score
 
 ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
@@ -55,7 +56,8 @@ ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results
 # run's, and a policy learner's.
 COPIED = ("selected_params.json", "best_params.json", "progress.csv")
 COPIED_POLICY = ("selected_model.zip", "selected_vecnormalize.pkl", "progress.csv")
-_GAIT, _POLICY = COPIED[0], COPIED_POLICY[0]
+COPIED_EXPORTED = (exported.FILE, "progress.csv")
+_GAIT, _POLICY, _EXPORTED = COPIED[0], COPIED_POLICY[0], COPIED_EXPORTED[0]
 QUICK_SEEDS = 5  # test seeds per tier in a quick verification
 _CARD_KEYS = ("tiers", "all", "scoring_sim_steps")
 
@@ -64,7 +66,7 @@ def shipped_runs(root: str) -> list[str]:
     """The run folders under `root` (a summary and a selected gait or policy), sorted."""
     found = []
     for dirpath, _, names in os.walk(root):
-        if "summary.json" in names and (_GAIT in names or _POLICY in names):
+        if "summary.json" in names and {_GAIT, _POLICY, _EXPORTED} & set(names):
             found.append(dirpath)
     return sorted(found)
 
@@ -102,6 +104,9 @@ def rescore(run_dir: str, seeds: int | None = None, threads: int = 2) -> tuple[d
     """
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     settings = _settings(config, seeds, threads)
+    if os.path.exists(os.path.join(run_dir, _EXPORTED)):
+        policy = exported.NumpyPolicy.load(os.path.join(run_dir, _EXPORTED))
+        return score.score_policy_trials(policy, settings)
     if os.path.exists(os.path.join(run_dir, _POLICY)):
         from cpg_suite.harness import sb3  # the `rl` extra: only runs of policy learners
 
@@ -184,8 +189,7 @@ def ship(run_dir: str, dest: str, threads: int = 2) -> str:
         raise ValueError(f"{run_dir}: scored again, its card differs from the run's")
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     os.makedirs(dest, exist_ok=True)
-    policy = os.path.exists(os.path.join(run_dir, _POLICY))
-    for name in COPIED_POLICY if policy else COPIED:
+    for name in _copied(run_dir):
         shutil.copyfile(os.path.join(run_dir, name), os.path.join(dest, name))
     runs.write_json(os.path.join(dest, "summary.json"), {**summary, "test": fresh})
     runs.write_json(os.path.join(dest, "config.json"), _relocated(config))
@@ -193,6 +197,14 @@ def ship(run_dir: str, dest: str, threads: int = 2) -> str:
     versions = {"made_with": config.get("environment"), "scored_with": runs.environment_record()}
     runs.write_json(os.path.join(dest, "versions.json"), versions)
     return dest
+
+
+def _copied(run_dir: str) -> tuple[str, ...]:
+    """The artifacts of a run copied as they are: an exported policy's, an SB3 policy's or a
+    gait's."""
+    if os.path.exists(os.path.join(run_dir, _EXPORTED)):
+        return COPIED_EXPORTED
+    return COPIED_POLICY if os.path.exists(os.path.join(run_dir, _POLICY)) else COPIED
 
 
 def ship_all(root: str, artifacts: str, log: Callable[[str], None] = progress.write) -> int:

@@ -1,0 +1,96 @@
+"""Policies exported as arrays: an MLP run with NumPy in the CPU task, no training library.
+
+The format of `selected_policy.npz` (written by `NumpyPolicy.save`; `baselines.ppo_mjx`
+exports Brax's PPO to it): `mean`, `std` (observation normalization), `kernel_<i>`,
+`bias_<i>` (the dense layers, input first) and `action_space` ("joints" or "cpg").
+`cpg_suite.protocol.verify` re-scores shipped runs of this format.
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+
+import cpg_suite
+from cpg_suite import darwin, residual
+from cpg_suite.harness import runs
+
+FILE = "selected_policy.npz"
+ACTION_SPACES = residual.ACTION_SPACES
+
+
+class NumpyPolicy:
+    """A policy trained elsewhere (e.g. Brax's PPO on MJX), run in the CPU task with NumPy.
+
+    The deterministic action of a tanh-Gaussian MLP policy: the observation vector
+    (`darwin.OBSERVATION_KEYS` in order, plus the CPG phase for `cpg`: the MJX env's) is
+    normalized by running statistics, passed through the MLP (swish between layers) and
+    the first half of its output (the Gaussian's mean) through tanh. For the `cpg` action
+    space the policy steps its own CPG row (`reset()` before each episode), as the MJX env
+    does.
+    """
+
+    def __init__(self, arrays: dict[str, np.ndarray], action_space: str):
+        """Args:
+          arrays: `mean`, `std` and `kernel_<i>`, `bias_<i>` for each layer.
+          action_space: "joints" or "cpg".
+
+        Raises:
+          ValueError: On an unknown action space or missing layers.
+        """
+        if action_space not in ACTION_SPACES:
+            raise ValueError(f"action_space must be one of {ACTION_SPACES}, got {action_space!r}")
+        self.action_space = action_space
+        self.mean = np.asarray(arrays["mean"], np.float64)
+        self.std = np.asarray(arrays["std"], np.float64)
+        n = sum(1 for k in arrays if k.startswith("kernel_"))
+        if n == 0:
+            raise ValueError("the policy has no layers (kernel_0 ...)")
+        self.layers = [
+            (np.asarray(arrays[f"kernel_{i}"], np.float64), np.asarray(arrays[f"bias_{i}"]))
+            for i in range(n)
+        ]
+        self.cpg, self._physics = None, None
+        if action_space == "cpg":
+            self.cpg = residual.ModulatedCPG(1)
+            self._physics = cpg_suite.load("darwin_walk").physics  # its joint ranges
+
+    @classmethod
+    def load(cls, path: str) -> NumpyPolicy:
+        """A policy saved by `save`."""
+        with np.load(path) as data:
+            arrays = {k: data[k] for k in data.files}
+        return cls(arrays, str(arrays.pop("action_space")))
+
+    def save(self, path: str) -> None:
+        """Writes the policy to `path` (.npz), atomically."""
+        arrays = {"mean": self.mean, "std": self.std, "action_space": np.array(self.action_space)}
+        for i, (kernel, bias) in enumerate(self.layers):
+            arrays[f"kernel_{i}"], arrays[f"bias_{i}"] = kernel, bias
+        buffer = io.BytesIO()
+        np.savez(buffer, **arrays)
+        runs.write_bytes(path, buffer.getvalue())
+
+    def reset(self) -> None:
+        """Restarts the policy's CPG (before each episode)."""
+        if self.cpg is not None:
+            self.cpg.reset()
+
+    def act(self, features: np.ndarray) -> np.ndarray:
+        """Actions in [−1, 1] for (N, D) flat observations."""
+        x = (np.asarray(features, np.float64) - self.mean) / self.std
+        for i, (kernel, bias) in enumerate(self.layers):
+            x = x @ kernel + bias
+            if i < len(self.layers) - 1:
+                x = x / (1.0 + np.exp(-x))  # swish
+        return np.tanh(x[..., : x.shape[-1] // 2])
+
+    def __call__(self, observation: dict) -> np.ndarray:
+        parts = [np.ravel(observation[k]) for k in darwin.OBSERVATION_KEYS]
+        if self.cpg is not None:
+            parts.append(self.cpg.phase_features()[0])
+        action = self.act(np.concatenate(parts)[None])
+        if self.cpg is None:
+            return action[0]
+        return residual.joint_actions(action, self.cpg, self._physics, darwin.CONTROL_TIMESTEP)[0]
