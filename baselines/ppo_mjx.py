@@ -272,13 +272,28 @@ class _Run:
             self.clock = time.perf_counter()
             return
         steps = self.start_steps + int(current_step)
-        policy = export_policy(params, self.settings.action_space)
+        row = self._validate(steps, export_policy(params, self.settings.action_space))
+        self.rows.append(row)
+        self._checkpoint(steps, params)
+        self.log(
+            f"{steps:>12,} env steps  validation {row['validation_m']:+.3f} m, falls "
+            f"{row['validation_fall_rate']:.0%}  (best {self.best['validation_m']:+.3f} m)  "
+            f"train {self.train_wall_s:.0f} s"
+        )
+        self.clock = time.perf_counter()
+
+    def _validate(self, steps: int, policy: NumpyPolicy) -> dict:
+        """Validates the policy, keeps it if it is the best so far; its progress row."""
         validation_m, fall_rate, sim_steps = validate(policy, self.settings)
         self.validation_sim_steps += sim_steps
         if self.best is None or validation_m > self.best["validation_m"]:
-            policy.save(os.path.join(self.run_dir, POLICY_FILE))
-            self.best = {"env_steps": steps, "validation_m": validation_m, "fall_rate": fall_rate}
-        row = {
+            self.best = {
+                "env_steps": steps,
+                "validation_m": validation_m,
+                "fall_rate": fall_rate,
+                "policy": policy.arrays(),
+            }
+        return {
             "env_steps": steps,
             "validation_m": validation_m,
             "validation_fall_rate": fall_rate,
@@ -286,8 +301,9 @@ class _Run:
             "train_wall_s": round(self.train_wall_s, 3),
             "steps_per_s": round(steps / self.train_wall_s, 1) if self.train_wall_s else 0.0,
         }
-        self.rows.append(row)
-        runs.write_rows_csv(os.path.join(self.run_dir, "progress.csv"), self.rows)
+
+    def _checkpoint(self, steps: int, params) -> None:
+        """checkpoint.pkl (last parameters, best policy, rows), then the files it implies."""
         checkpoint = {
             "settings": dataclasses.asdict(self.settings),
             "env_steps": steps,
@@ -298,11 +314,13 @@ class _Run:
             "train_wall_s": self.train_wall_s,
         }
         runs.write_bytes(os.path.join(self.run_dir, "checkpoint.pkl"), pickle.dumps(checkpoint))
-        self.log(
-            f"{steps:>12,} env steps  validation {validation_m:+.3f} m, falls {fall_rate:.0%}"
-            f"  (best {self.best['validation_m']:+.3f} m)  train {self.train_wall_s:.0f} s"
-        )
-        self.clock = time.perf_counter()
+        write_run_files(self.run_dir, self.settings, self.best, self.rows)
+
+
+def write_run_files(run_dir: str, settings: PPOMJXSettings, best: dict, rows: list) -> None:
+    """selected_policy.npz and progress.csv as a checkpoint holds them (atomic writes)."""
+    NumpyPolicy(best["policy"], settings.action_space).save(os.path.join(run_dir, POLICY_FILE))
+    runs.write_rows_csv(os.path.join(run_dir, "progress.csv"), rows)
 
 
 def _to_numpy(tree):
@@ -342,6 +360,8 @@ def train(settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], re
         train_wall_s=state["train_wall_s"] if state else 0.0,
         resumed=state is not None,
     )
+    if state:  # the files may lag the checkpoint if the run stopped between the writes
+        write_run_files(run_dir, settings, state["best"], state["rows"])
     remaining = settings.total_steps - record.start_steps
     if remaining <= 0:
         return record

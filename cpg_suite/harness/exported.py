@@ -63,13 +63,17 @@ class NumpyPolicy:
             arrays = {k: data[k] for k in data.files}
         return cls(arrays, str(arrays.pop("action_space")))
 
-    def save(self, path: str) -> None:
-        """Writes the policy to `path` (.npz), atomically."""
-        arrays = {"mean": self.mean, "std": self.std, "action_space": np.array(self.action_space)}
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The policy as the arrays of its file (`NumpyPolicy(arrays, action_space)` again)."""
+        arrays = {"mean": self.mean, "std": self.std}
         for i, (kernel, bias) in enumerate(self.layers):
             arrays[f"kernel_{i}"], arrays[f"bias_{i}"] = kernel, bias
+        return arrays
+
+    def save(self, path: str) -> None:
+        """Writes the policy to `path` (.npz), atomically."""
         buffer = io.BytesIO()
-        np.savez(buffer, **arrays)
+        np.savez(buffer, **self.arrays(), action_space=np.array(self.action_space))
         runs.write_bytes(path, buffer.getvalue())
 
     def reset(self) -> None:
