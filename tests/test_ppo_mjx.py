@@ -264,3 +264,28 @@ def test_an_exported_policy_run_ships_and_verifies(tmp_path):
     other = ppo_mjx.export_policy(_brax_params(env.observation_size, (8,), seed=3)[1], "joints")
     other.save(str(dest / "selected_policy.npz"))  # a different policy: verify must see it
     assert verify.verify_run(str(dest)) != []
+
+
+def test_a_zero_cpg_policy_walks_the_hand_tuned_gait_on_the_cpu():
+    """Known answer: in the `cpg` space a policy that outputs 0 is the hand-tuned gait."""
+    from cpg_suite import cpg
+    from cpg_suite.harness.exported import NumpyPolicy
+    from cpg_suite.protocol import score
+
+    size = mjx_walk.WalkEnv("darwin_walk", "cpg").observation_size
+    zero = NumpyPolicy(
+        {
+            "mean": np.zeros(size),
+            "std": np.ones(size),
+            "kernel_0": np.zeros((size, 24)),
+            "bias_0": np.zeros(24),
+        },
+        "cpg",
+    )
+    hand_tuned = score.OpenLoopPolicy(cpg.amplitudes_from("hand_tuned"), steps=200)
+    for seed in (1_000_000, 2_000_003):
+        ours = score.policy_trial(zero, "darwin_walk", seed, steps=200)
+        theirs = score.policy_trial(hand_tuned, "darwin_walk", seed, steps=200)
+        # The CPG rows step where the open-loop gait's targets are precomputed: equal to
+        # round-off, which the contacts do not amplify over 200 steps.
+        assert abs(ours["distance_m"] - theirs["distance_m"]) < 1e-9 and not ours["fell"]

@@ -11,6 +11,7 @@ from __future__ import annotations
 import io
 
 import numpy as np
+from scipy import special
 
 import cpg_suite
 from cpg_suite import darwin, residual
@@ -87,7 +88,7 @@ class NumpyPolicy:
         for i, (kernel, bias) in enumerate(self.layers):
             x = x @ kernel + bias
             if i < len(self.layers) - 1:
-                x = x / (1.0 + np.exp(-x))  # swish
+                x = x * special.expit(x)  # swish, without exp's overflow
         return np.tanh(x[..., : x.shape[-1] // 2])
 
     def __call__(self, observation: dict) -> np.ndarray:
