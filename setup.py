@@ -18,14 +18,17 @@ def _readme() -> str:
         return f.read()
 
 
-# MJX must match MuJoCo's minor version (mujoco-mjx 3.17 with mujoco 3.17). JAX below 0.10:
-# Brax 0.14.2's PPO calls jax.device_put_replicated, which JAX 0.10 removed (tested with
-# 0.9.2). gymnasium: the CPG action space's constants live in cpg_suite.residual.
-_JAX = ">=0.9.2,<0.10"
+# MJX must match MuJoCo's minor version (mujoco-mjx 3.17 with mujoco 3.17). JAX: tested with
+# 0.9.2 and 0.10.2 (CPU) and 0.11.2 (CUDA 13, H100); Brax 0.14.2's PPO needs
+# jax.device_put_replicated, which JAX 0.10 removed, and gets it from
+# cpg_suite.mjx.training.brax_on_this_jax. gymnasium: the CPG action space's constants live
+# in cpg_suite.residual.
+_JAX = ">=0.9.2,<0.12"
 _MJX_COMMON = [
     "mujoco==3.17.*",
     "mujoco-mjx==3.17.*",
     "gymnasium>=1.0,<2",
+    "shimmy[dm-control]>=2.0,<3",  # the CPU vector env that benchmarks/bench_mjx.py compares
     "brax>=0.14.2,<0.15",  # PPO on MJX (baselines.ppo_mjx)
 ]
 _MJX = [*_MJX_COMMON, f"jax[cpu]{_JAX}"]

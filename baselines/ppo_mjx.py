@@ -27,7 +27,10 @@ Run directory `<output_dir>/ppo_mjx/<task>/<action_space>_seed<seed>/`: config.j
 progress.csv, checkpoint.pkl (the last parameters), selected_policy.npz, summary.json.
 `--resume` restarts from checkpoint.pkl's parameters and normalizer for the remaining
 steps; Adam's moments and the environments start afresh, so a resumed run is not bit for
-bit the uninterrupted one (Brax's trainer keeps no more).
+bit the uninterrupted one (Brax's trainer keeps no more). Training on one machine and
+scoring on another: `--test_seeds=0` on the GPU machine, then the same command with
+`--resume` and the scoring flags on the CPU one (the test_* settings may change on resume;
+summary.json names the device that trained).
 """
 
 from __future__ import annotations
@@ -262,6 +265,7 @@ class _Run:
     validation_sim_steps: int = 0
     clock: float = dataclasses.field(default_factory=time.perf_counter)
     train_wall_s: float = 0.0
+    device: str = ""  # the JAX device(s) that trained, e.g. "gpu (NVIDIA H100 80GB HBM3)"
     resumed: bool = False  # Brax's first call then hands back the checkpoint's parameters
 
     def on_params(self, current_step: int, make_policy, params) -> None:
@@ -312,6 +316,7 @@ class _Run:
             "rows": self.rows,
             "validation_sim_steps": self.validation_sim_steps,
             "train_wall_s": self.train_wall_s,
+            "device": self.device,
         }
         runs.write_bytes(os.path.join(self.run_dir, "checkpoint.pkl"), pickle.dumps(checkpoint))
         write_run_files(self.run_dir, self.settings, self.best, self.rows)
@@ -358,13 +363,16 @@ def train(settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], re
         rows=state["rows"] if state else [],
         validation_sim_steps=state["validation_sim_steps"] if state else 0,
         train_wall_s=state["train_wall_s"] if state else 0.0,
+        device=state.get("device", "") if state else "",
         resumed=state is not None,
     )
     if state:  # the files may lag the checkpoint if the run stopped between the writes
         write_run_files(run_dir, settings, state["best"], state["rows"])
     remaining = settings.total_steps - record.start_steps
-    if remaining <= 0:
+    if remaining <= 0:  # trained (perhaps on another machine): only the scoring is left
         return record
+    if device_name() not in record.device.split(" + "):
+        record.device = " + ".join(filter(None, [record.device, device_name()]))
     kwargs = brax_train_kwargs(settings)
     if state:  # a fresh stream of draws for the remaining steps
         kwargs.update(
@@ -375,7 +383,8 @@ def train(settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], re
         )
     env = training.BraxWalkEnv(mjx_walk.WalkEnv(settings.task, settings.action_space))
     record.clock = time.perf_counter()
-    brax_ppo.train(env, policy_params_fn=record.on_params, **kwargs)
+    with training.brax_on_this_jax():
+        brax_ppo.train(env, policy_params_fn=record.on_params, **kwargs)
     return record
 
 
@@ -385,9 +394,14 @@ def _resume_state(run_dir: str, settings: PPOMJXSettings) -> dict | None:
         return None
     with open(path, "rb") as f:
         state = pickle.load(f)
-    if state.get("settings") != dataclasses.asdict(settings):
+    if _training_settings(state["settings"]) != _training_settings(dataclasses.asdict(settings)):
         raise cli.UsageError(f"{path} was written by other settings; pass --overwrite")
     return state
+
+
+def _training_settings(settings: dict) -> dict:
+    """The settings that shape training: all but the final score card's (test_*)."""
+    return {k: v for k, v in settings.items() if not k.startswith("test_")}
 
 
 def run(
@@ -447,7 +461,7 @@ def _summary(settings: PPOMJXSettings, record: _Run) -> dict:
         "sim_steps": last["env_steps"] * 8,  # 8 MJX physics steps per control step
         "validation_sim_steps": record.validation_sim_steps,
         "train_wall_s": record.train_wall_s,
-        "device": device_name(),
+        "device": record.device,
         "selected": {
             "source": f"env_steps_{best['env_steps']}",
             "env_steps": best["env_steps"],

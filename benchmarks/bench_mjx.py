@@ -1,6 +1,7 @@
 r"""Control steps per second of the MJX walking env under `vmap` + `jit`, against the CPU.
 
   python benchmarks/bench_mjx.py [--batches=1,64,1024,8192] [--steps=20] [--cpu_envs=16]
+      [--iterations=N --ls_iterations=N]
 
 For each batch size B, B robots are reset (`jax.vmap(WalkEnv.reset)`) and stepped `steps`
 control steps with the hand-tuned gait's actions by one jitted `jax.vmap(WalkEnv.step)`
@@ -8,7 +9,9 @@ control steps with the hand-tuned gait's actions by one jitted `jax.vmap(WalkEnv
 (`cpg_suite.vector.make_vector_env`, `--threads` threads, `--cpu_envs` robots) steps the
 same actions. Prints control steps/s of each and their ratio MJX / CPU. JAX runs on its
 default device (CPU here unless a GPU build and device are present; float32 unless
-`--x64`).
+`--x64`). `--iterations` / `--ls_iterations` cap MJX's constraint solver below the
+model's own 100 / 50 (results/mjx: the main cost under `vmap`, where every robot waits for
+the slowest); capped, the MJX physics is no longer the CPU reference's.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from absl import flags
+from mujoco import mjx
 
 from cpg_suite import cli, cpg, darwin
 from cpg_suite.mjx import walk
@@ -41,6 +45,8 @@ class BenchMJXSettings:
       threads: Threads of the CPU vector env.
       task: One of `cpg_suite.mjx.TASKS`.
       x64: float64 MJX physics (default float32, the precision of GPU training).
+      iterations: MJX solver iterations (0: the model's own, 100).
+      ls_iterations: MJX line-search iterations (0: the model's own, 50).
     """
 
     batches: str = "1,64,1024,8192"
@@ -49,6 +55,8 @@ class BenchMJXSettings:
     threads: int = 2
     task: str = "darwin_walk"
     x64: bool = False
+    iterations: int = 0
+    ls_iterations: int = 0
 
     def __post_init__(self):
         cli.require(
@@ -59,6 +67,9 @@ class BenchMJXSettings:
         cli.require(self.cpu_envs >= 1, f"--cpu_envs must be ≥ 1, got {self.cpu_envs}")
         cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
         cli.require(self.task in walk.TASKS, f"--task must be one of {walk.TASKS}")
+        for name in ("iterations", "ls_iterations"):
+            value = getattr(self, name)
+            cli.require(value >= 0, f"--{name} must be ≥ 0 (0: the model's own), got {value}")
 
     def batch_list(self) -> list[int]:
         """The batch sizes, parsed."""
@@ -70,6 +81,15 @@ def gait_actions(steps: int) -> np.ndarray:
     targets = cpg.trajectories(cpg.amplitudes_from("hand_tuned"), steps, darwin.CONTROL_TIMESTEP)
     env = walk.WalkEnv("darwin_walk")
     return np.asarray(env.targets_to_action(jnp.asarray(targets[0])))
+
+
+def with_solver(env: walk.WalkEnv, iterations: int, ls_iterations: int) -> walk.WalkEnv:
+    """`env` with its MJX model's solver capped (0 keeps the model's value)."""
+    opt = env.mj_model.opt
+    opt.iterations = iterations or opt.iterations
+    opt.ls_iterations = ls_iterations or opt.ls_iterations
+    env.model = mjx.put_model(env.mj_model)
+    return env
 
 
 def mjx_rate(env: walk.WalkEnv, batch: int, actions: np.ndarray) -> tuple[float, float]:
@@ -132,7 +152,12 @@ def benchmark(settings: BenchMJXSettings) -> list[dict]:
     )
     rows = []
     with jax.enable_x64(settings.x64):
-        env = walk.WalkEnv(settings.task)
+        env = with_solver(walk.WalkEnv(settings.task), settings.iterations, settings.ls_iterations)
+        print(
+            f"solver: {env.mj_model.opt.iterations} iterations, "
+            f"{env.mj_model.opt.ls_iterations} line-search iterations",
+            flush=True,
+        )
         for batch in settings.batch_list():
             rate, compile_s = mjx_rate(env, batch, actions)
             rows.append(
@@ -160,6 +185,10 @@ def define_flags() -> None:
     flags.DEFINE_integer("threads", d.threads, "Threads of the CPU vector env.")
     flags.DEFINE_string("task", d.task, f"One of {', '.join(walk.TASKS)}.")
     flags.DEFINE_bool("x64", d.x64, "float64 MJX physics (default float32).")
+    flags.DEFINE_integer("iterations", d.iterations, "MJX solver iterations (0: the model's).")
+    flags.DEFINE_integer(
+        "ls_iterations", d.ls_iterations, "MJX line-search iterations (0: the model's)."
+    )
 
 
 def main(argv: list[str]) -> None:

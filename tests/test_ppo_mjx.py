@@ -289,3 +289,40 @@ def test_a_zero_cpg_policy_walks_the_hand_tuned_gait_on_the_cpu():
         # The CPG rows step where the open-loop gait's targets are precomputed: equal to
         # round-off, which the contacts do not amplify over 200 steps.
         assert abs(ours["distance_m"] - theirs["distance_m"]) < 1e-9 and not ours["fell"]
+
+
+def test_a_run_trained_elsewhere_is_scored_on_resume(tmp_path):
+    """Trained with `test_seeds=0` (the GPU machine), then `--resume` with the scoring flags
+    (the CPU one): no training is left, the card is made and the training device is named."""
+    trained = _settings(total_steps=40, validation_every=40, test_seeds=0)
+    env = mjx_walk.WalkEnv("darwin_walk", "joints")
+    run_dir = tmp_path / "ppo_mjx" / "darwin_walk" / "joints_seed0"
+    run_dir.mkdir(parents=True)
+    record = ppo_mjx._Run(str(run_dir), trained, lambda line: None, 0, None, [])
+    record.device = "gpu (a test device)"
+    for steps, seed in ((0, 0), (40, 1)):
+        record.on_params(steps, None, _brax_params(env.observation_size, (8,), seed)[1])
+    scoring = dataclasses.replace(trained, test_seeds=2, test_tiers=("darwin_walk",))
+    options = ppo_mjx.runs.RunOptions(output_dir=str(tmp_path), resume=True)
+    _, summary = ppo_mjx.run(scoring, options, log=lambda line: None)
+    assert summary["device"] == "gpu (a test device)" and summary["env_steps"] == 40
+    assert summary["test"]["tiers"]["darwin_walk"]["n"] == 2
+    with pytest.raises(cli.UsageError, match="other settings"):  # training settings still bind
+        ppo_mjx._resume_state(str(run_dir), dataclasses.replace(scoring, total_steps=80))
+
+
+def test_brax_gets_device_put_replicated_for_the_call_only():
+    """Brax 0.14.2 replicates its state with `jax.device_put_replicated` (removed in JAX 0.10):
+    inside `brax_on_this_jax` Brax's own helper works, and `jax` is as before afterwards."""
+    from brax.training import pmap as brax_pmap
+
+    before = getattr(jax, "device_put_replicated", None)
+    tree = {"w": jnp.arange(6.0).reshape(2, 3), "n": jnp.int32(7)}
+    with training.brax_on_this_jax():
+        out = brax_pmap.bcast_local_devices(tree, 1)
+    assert getattr(jax, "device_put_replicated", None) is before
+    np.testing.assert_array_equal(out["w"], np.arange(6.0).reshape(1, 2, 3))
+    assert out["n"].shape == (1,) and int(out["n"][0]) == 7
+    np.testing.assert_array_equal(
+        training.replicated_put(tree, jax.local_devices()[:1])["w"][0], tree["w"]
+    )

@@ -16,14 +16,55 @@ a fall is terminal.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+from collections.abc import Callable, Iterator
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from brax.envs import base as brax_base
 from brax.envs.wrappers import training as brax_wrappers
 
 from cpg_suite.mjx.walk import WalkEnv
+
+
+def replicated_put(tree, devices):
+    """One copy of each leaf per device, stacked on a new leading axis sharded over them.
+
+    What `jax.device_put_replicated` did before JAX 0.10 removed it, written as the JAX
+    documentation's replacement (a `NamedSharding` over a one-axis mesh of `devices`).
+
+    Args:
+      tree: A pytree of arrays.
+      devices: The devices, e.g. `jax.local_devices()[:1]`.
+
+    Returns:
+      The pytree with leaves of shape `(len(devices), *leaf.shape)`.
+    """
+    sharding = jax.sharding.NamedSharding(
+        jax.sharding.Mesh(np.array(devices), ("devices",)),
+        jax.sharding.PartitionSpec("devices"),
+    )
+    return jax.tree.map(lambda x: jax.device_put(jnp.stack([x] * len(devices)), sharding), tree)
+
+
+@contextlib.contextmanager
+def brax_on_this_jax() -> Iterator[None]:
+    """Lets Brax 0.14's trainers run on JAX 0.10 and newer, for the duration of the block.
+
+    Brax 0.14.2 puts its training state on the devices with `jax.device_put_replicated`,
+    which JAX 0.10 removed (google/brax#671, open). Where `jax` lacks it, the block lends
+    it `replicated_put` under that name and takes it away on exit, so no process-wide state
+    outlives the call; where `jax` still has its own, the block changes nothing.
+    """
+    if hasattr(jax, "device_put_replicated"):
+        yield
+        return
+    jax.device_put_replicated = replicated_put
+    try:
+        yield
+    finally:
+        del jax.device_put_replicated
 
 
 class BraxWalkEnv(brax_base.Env):
