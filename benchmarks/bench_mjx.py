@@ -28,7 +28,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from absl import flags
-from mujoco import mjx
 
 from cpg_suite import cli, cpg, darwin
 from cpg_suite.mjx import walk
@@ -45,7 +44,7 @@ class BenchMJXSettings:
       threads: Threads of the CPU vector env.
       task: One of `cpg_suite.mjx.TASKS`.
       x64: float64 MJX physics (default float32, the precision of GPU training).
-      iterations: MJX solver iterations (0: the model's own, 100).
+      iterations: MJX solver iterations (0, with `ls_iterations` 0: the model's own, 100).
       ls_iterations: MJX line-search iterations (0: the model's own, 50).
     """
 
@@ -67,9 +66,16 @@ class BenchMJXSettings:
         cli.require(self.cpu_envs >= 1, f"--cpu_envs must be ≥ 1, got {self.cpu_envs}")
         cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
         cli.require(self.task in walk.TASKS, f"--task must be one of {walk.TASKS}")
-        for name in ("iterations", "ls_iterations"):
-            value = getattr(self, name)
-            cli.require(value >= 0, f"--{name} must be ≥ 0 (0: the model's own), got {value}")
+        cli.require(
+            (self.iterations >= 1 and self.ls_iterations >= 1)
+            or (self.iterations == 0 and self.ls_iterations == 0),
+            "--iterations and --ls_iterations must both be ≥ 1, or both 0 (the model's own), "
+            f"got {self.iterations} and {self.ls_iterations}",
+        )
+
+    def solver_iterations(self) -> tuple[int, int] | None:
+        """`WalkEnv`'s solver caps, or None for the model's own."""
+        return (self.iterations, self.ls_iterations) if self.iterations else None
 
     def batch_list(self) -> list[int]:
         """The batch sizes, parsed."""
@@ -81,15 +87,6 @@ def gait_actions(steps: int) -> np.ndarray:
     targets = cpg.trajectories(cpg.amplitudes_from("hand_tuned"), steps, darwin.CONTROL_TIMESTEP)
     env = walk.WalkEnv("darwin_walk")
     return np.asarray(env.targets_to_action(jnp.asarray(targets[0])))
-
-
-def with_solver(env: walk.WalkEnv, iterations: int, ls_iterations: int) -> walk.WalkEnv:
-    """`env` with its MJX model's solver capped (0 keeps the model's value)."""
-    opt = env.mj_model.opt
-    opt.iterations = iterations or opt.iterations
-    opt.ls_iterations = ls_iterations or opt.ls_iterations
-    env.model = mjx.put_model(env.mj_model)
-    return env
 
 
 def mjx_rate(env: walk.WalkEnv, batch: int, actions: np.ndarray) -> tuple[float, float]:
@@ -152,7 +149,7 @@ def benchmark(settings: BenchMJXSettings) -> list[dict]:
     )
     rows = []
     with jax.enable_x64(settings.x64):
-        env = with_solver(walk.WalkEnv(settings.task), settings.iterations, settings.ls_iterations)
+        env = walk.WalkEnv(settings.task, solver_iterations=settings.solver_iterations())
         print(
             f"solver: {env.mj_model.opt.iterations} iterations, "
             f"{env.mj_model.opt.ls_iterations} line-search iterations",

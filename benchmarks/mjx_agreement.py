@@ -1,14 +1,15 @@
 r"""A CPG gait (default hand-tuned) in the MJX env and in the CPU reference, from one state.
 
   python benchmarks/mjx_agreement.py [--params=hand_tuned] [--seeds=0-4] [--steps=1000] \
-      [--precisions=64,32]
+      [--precisions=64,32] [--solver_iterations=4,8]
 
 For each seed, the CPU task `darwin_walk` is reset with it (`evaluation.gait.evaluate_gait`
 runs the trial); its reset state is put into MJX (`WalkEnv.state_from_mujoco`) and the same
 joint-target actions are stepped there, in float64 and in float32 (the precision of GPU
 training). Prints each trial's distance, lateral drift and fall in both, and the largest
 differences; for scale, also the CPU trial from a start moved by 1e-9 rad per leg joint.
-Needs the `mjx` extra; runs on whatever device JAX picks.
+`--solver_iterations=I,L` caps MJX's constraint solver (`WalkEnv(solver_iterations=...)`)
+to see what a cap changes. Needs the `mjx` extra; runs on whatever device JAX picks.
 """
 
 from __future__ import annotations
@@ -45,27 +46,48 @@ class AgreementSettings:
       seeds: Initial-state seeds of the CPU task: `N`, `A-B` or a comma list.
       steps: Control steps per trial.
       precisions: MJX float widths to run, comma-separated (64 and/or 32).
+      solver_iterations: `I,L`: MJX's solver and line-search iteration caps ("": the
+        model's own, as the CPU reference).
     """
 
     params: str = "hand_tuned"
     seeds: str = "0-4"
     steps: int = 1000
     precisions: str = "64,32"
+    solver_iterations: str = ""
 
     def __post_init__(self):
         cli.parse_seeds(self.seeds)
+        self.solver_caps()
         cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
         cli.require(
             set(self.precision_list()) <= set(_PRECISIONS) and self.precision_list(),
             f"--precisions must name 64 and/or 32, got {self.precisions!r}",
         )
 
+    def solver_caps(self) -> tuple[int, int] | None:
+        """The solver caps, parsed (None: the model's own)."""
+        if not self.solver_iterations:
+            return None
+        parts = self.solver_iterations.split(",")
+        cli.require(
+            len(parts) == 2 and all(p.strip().isdigit() and int(p) >= 1 for p in parts),
+            f"--solver_iterations must be two integers ≥ 1 (I,L), got {self.solver_iterations!r}",
+        )
+        return int(parts[0]), int(parts[1])
+
     def precision_list(self) -> list[int]:
         """The float widths, parsed (unparseable entries become 0, which fails the check)."""
         return [int(p) if p.strip().isdigit() else 0 for p in self.precisions.split(",")]
 
 
-def mjx_trials(amplitudes: np.ndarray, seeds: list[int], steps: int, x64: bool) -> list[dict]:
+def mjx_trials(
+    amplitudes: np.ndarray,
+    seeds: list[int],
+    steps: int,
+    x64: bool,
+    solver_iterations: tuple[int, int] | None = None,
+) -> list[dict]:
     """A gait in MJX from the CPU task's reset state for each seed.
 
     Args:
@@ -73,6 +95,7 @@ def mjx_trials(amplitudes: np.ndarray, seeds: list[int], steps: int, x64: bool) 
       seeds: The CPU task's seeds.
       steps: Control steps.
       x64: float64 physics (else float32).
+      solver_iterations: MJX's solver caps (None: the model's own).
 
     Returns:
       Per seed, as `walk.trial_result`, plus `seconds` (wall time; the first trial's
@@ -81,7 +104,7 @@ def mjx_trials(amplitudes: np.ndarray, seeds: list[int], steps: int, x64: bool) 
     targets = cpg.trajectories(amplitudes, steps, darwin.CONTROL_TIMESTEP)
     results = []
     with jax.enable_x64(x64):
-        env = walk.WalkEnv("darwin_walk")
+        env = walk.WalkEnv("darwin_walk", solver_iterations=solver_iterations)
         run = jax.jit(functools.partial(walk.rollout, env))
         for seed in seeds:
             start = time.perf_counter()
@@ -142,7 +165,7 @@ def compare(settings: AgreementSettings) -> list[dict]:
     seeds = cli.parse_seeds(settings.seeds)
     amplitudes = parse_params(settings.params)
     mjx = {
-        bits: mjx_trials(amplitudes, seeds, settings.steps, bits == 64)
+        bits: mjx_trials(amplitudes, seeds, settings.steps, bits == 64, settings.solver_caps())
         for bits in settings.precision_list()
     }
     keys = ("distance_m", "lateral_m", "fall_step")
@@ -174,6 +197,9 @@ def define_flags() -> None:
     flags.DEFINE_string("seeds", d.seeds, "Seeds of the CPU task: N, A-B or a comma list.")
     flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")
     flags.DEFINE_string("precisions", d.precisions, "MJX float widths: 64 and/or 32.")
+    flags.DEFINE_string(
+        "solver_iterations", d.solver_iterations, "I,L: MJX solver caps (default the model's)."
+    )
 
 
 def main(argv: list[str]) -> None:

@@ -391,3 +391,14 @@ def test_bad_arguments():
         walk.WalkEnv("darwin_walk", "torques")
     with pytest.raises(ValueError, match="posture"):
         walk.WalkEnv("darwin_walk", posture=np.zeros(11))
+    with pytest.raises(ValueError, match="solver_iterations"):
+        walk.WalkEnv("darwin_walk", solver_iterations=(0, 8))
+
+
+def test_solver_caps_reach_the_mjx_model():
+    """The model's own solver (the CPU reference's) unless caps are given; then MJX's."""
+    own = walk.WalkEnv("darwin_walk")
+    capped = walk.WalkEnv("darwin_walk", solver_iterations=(4, 8))
+    assert (own.model.opt.iterations, own.model.opt.ls_iterations) == (100, 50)
+    assert (capped.model.opt.iterations, capped.model.opt.ls_iterations) == (4, 8)
+    assert (capped.mj_model.opt.iterations, capped.mj_model.opt.ls_iterations) == (4, 8)

@@ -113,6 +113,7 @@ class WalkEnv:
         randomization: perturbations.Randomization | None = None,
         pushes: perturbations.Pushes | None = None,
         config: cpg.CPGConfig | None = None,
+        solver_iterations: tuple[int, int] | None = None,
     ):
         """Builds the MJX model; call under `jax.enable_x64(True)` for float64 physics.
 
@@ -124,9 +125,16 @@ class WalkEnv:
             `perturbations.Randomization()`); ignored by the other tiers.
           pushes: Pushes of `darwin_walk_push` (default `perturbations.Pushes()`).
           config: CPG constants of the `cpg` action space and of the default posture.
+          solver_iterations: `(iterations, line-search iterations)` caps of MJX's
+            constraint solver. None keeps the model's (100, 50), the CPU reference's. Under
+            `vmap` every robot pays for the full line search and for the slowest robot's
+            iterations, so caps are much faster on a GPU (results/mjx); MuJoCo C on this
+            model needs about 1.2-1.4 solver iterations per step and up to 7 line-search
+            evaluations (`benchmarks/mjx_agreement.py --solver_iterations` measures what a
+            cap changes).
 
         Raises:
-          ValueError: On an unknown task or action space, or a bad posture.
+          ValueError: On an unknown task or action space, a bad posture or solver caps.
         """
         if task_id not in TASKS:
             raise ValueError(f"unknown MJX task {task_id!r}; valid: {', '.join(TASKS)}")
@@ -145,6 +153,13 @@ class WalkEnv:
         self.pushes = (pushes or perturbations.Pushes()) if task_id == "darwin_walk_push" else None
         self.init_noise = self.randomization.init_noise if randomized else darwin.INIT_NOISE
         self.mj_model = mujoco.MjModel.from_xml_string(*darwin.get_model_and_assets())
+        if solver_iterations is not None:
+            if len(solver_iterations) != 2 or min(solver_iterations) < 1:
+                raise ValueError(
+                    f"solver_iterations must be two integers ≥ 1, got {solver_iterations!r}"
+                )
+            opt = self.mj_model.opt
+            opt.iterations, opt.ls_iterations = (int(v) for v in solver_iterations)
         self.model = mjx.put_model(self.mj_model)
         self._layout(self.mj_model)
         self.n_substeps = int(round(darwin.CONTROL_TIMESTEP / self.mj_model.opt.timestep))

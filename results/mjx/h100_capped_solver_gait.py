@@ -3,7 +3,8 @@
 The script that produced h100_capped_solver_gait.log (run from the repository root as
 `python results/mjx/h100_capped_solver_gait.py 512 1000`): B robots of `darwin_walk`, each
 with its own reset draw, T control steps of the hand-tuned gait's actions; distance is the
-summed reward (torso travel, m) until a fall.
+summed reward (torso travel, m) until a fall. (On the H100 the caps were set by a helper
+since replaced by `WalkEnv(solver_iterations=...)`, which sets the same two fields.)
 """
 
 import sys
@@ -20,7 +21,7 @@ from cpg_suite.mjx import walk
 B, T = int(sys.argv[1]), int(sys.argv[2])
 actions = jnp.asarray(bench_mjx.gait_actions(T))
 for it, ls in [(0, 0), (4, 8), (1, 4)]:
-    env = bench_mjx.with_solver(walk.WalkEnv("darwin_walk"), it, ls)
+    env = walk.WalkEnv("darwin_walk", solver_iterations=(it, ls) if it else None)
 
     def episode(key, env=env):
         def body(carry, a):
