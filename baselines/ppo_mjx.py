@@ -92,6 +92,9 @@ class PPOMJXSettings:
         max_grad_norm: Brax PPO's hyperparameters.
       policy_layers: Hidden layers of the policy network.
       value_layers: Hidden layers of the value network.
+      solver_iterations: `(iterations, line-search iterations)` caps of MJX's solver in
+        training (`WalkEnv(solver_iterations=...)`; empty: the model's own, the CPU
+        reference's). Validation and the test card always run on the CPU reference.
     """
 
     task: str = "darwin_walk"
@@ -117,6 +120,7 @@ class PPOMJXSettings:
     max_grad_norm: float = 1.0
     policy_layers: tuple[int, ...] = (128, 128, 128, 128)
     value_layers: tuple[int, ...] = (256, 256, 256, 256, 256)
+    solver_iterations: tuple[int, ...] = ()
 
     def __post_init__(self):
         require = cli.require
@@ -158,6 +162,16 @@ class PPOMJXSettings:
         )
         for name in ("policy_layers", "value_layers"):
             object.__setattr__(self, name, _layers(getattr(self, name), name))
+        try:
+            caps = tuple(int(v) for v in self.solver_iterations)
+        except (TypeError, ValueError):
+            caps = (0,)
+        require(
+            not caps or (len(caps) == 2 and min(caps) >= 1),
+            f"--solver_iterations must be two integers ≥ 1 (I,L) or empty, "
+            f"got {self.solver_iterations!r}",
+        )
+        object.__setattr__(self, "solver_iterations", caps)
 
     @property
     def num_evals(self) -> int:
@@ -381,7 +395,10 @@ def train(settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], re
             seed=settings.seed + 1_000_003 * (len(state["rows"])),
             restore_params=state["params"],
         )
-    env = training.BraxWalkEnv(mjx_walk.WalkEnv(settings.task, settings.action_space))
+    walk_env = mjx_walk.WalkEnv(
+        settings.task, settings.action_space, solver_iterations=settings.solver_iterations or None
+    )
+    env = training.BraxWalkEnv(walk_env)
     record.clock = time.perf_counter()
     with training.brax_on_this_jax():
         brax_ppo.train(env, policy_params_fn=record.on_params, **kwargs)
@@ -514,6 +531,9 @@ def define_flags() -> None:
         flags.DEFINE_float(name, getattr(d, name), f"Brax PPO: {name}.")
     flags.DEFINE_list("policy_layers", [str(v) for v in d.policy_layers], "Policy hidden layers.")
     flags.DEFINE_list("value_layers", [str(v) for v in d.value_layers], "Value hidden layers.")
+    flags.DEFINE_list(
+        "solver_iterations", [], "I,L: MJX solver caps in training (default the model's)."
+    )
     o = runs.RunOptions()
     flags.DEFINE_string("output_dir", o.output_dir, "Root of the output tree.")
     flags.DEFINE_string("run_name", o.run_name, "Run directory name (default from settings).")

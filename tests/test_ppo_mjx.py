@@ -176,6 +176,9 @@ def test_validation_keeps_the_best_policy_and_checkpoints(tmp_path):
         (dict(policy_layers=("a",)), "--policy_layers"),
         (dict(discounting=0.0), "--discounting"),
         (dict(test_tiers=("nowhere",)), "--test_tiers"),
+        (dict(solver_iterations=(0, 8)), "--solver_iterations"),
+        (dict(solver_iterations=("a", "b")), "--solver_iterations"),
+        (dict(solver_iterations=(4,)), "--solver_iterations"),
     ],
 )
 def test_settings_reject_bad_values(kw, words):
@@ -309,6 +312,11 @@ def test_a_run_trained_elsewhere_is_scored_on_resume(tmp_path):
     assert summary["test"]["tiers"]["darwin_walk"]["n"] == 2
     with pytest.raises(cli.UsageError, match="other settings"):  # training settings still bind
         ppo_mjx._resume_state(str(run_dir), dataclasses.replace(scoring, total_steps=80))
+
+
+def test_solver_caps_are_parsed():
+    assert _settings().solver_iterations == ()
+    assert _settings(solver_iterations=["100", "8"]).solver_iterations == (100, 8)
 
 
 def test_brax_gets_device_put_replicated_for_the_call_only():
