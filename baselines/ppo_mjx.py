@@ -280,6 +280,7 @@ class _Run:
     clock: float = dataclasses.field(default_factory=time.perf_counter)
     train_wall_s: float = 0.0
     device: str = ""  # the JAX device(s) that trained, e.g. "gpu (NVIDIA H100 80GB HBM3)"
+    environment: dict = dataclasses.field(default_factory=dict)  # of the first training call
     resumed: bool = False  # Brax's first call then hands back the checkpoint's parameters
 
     def on_params(self, current_step: int, make_policy, params) -> None:
@@ -331,6 +332,7 @@ class _Run:
             "validation_sim_steps": self.validation_sim_steps,
             "train_wall_s": self.train_wall_s,
             "device": self.device,
+            "environment": self.environment,
         }
         runs.write_bytes(os.path.join(self.run_dir, "checkpoint.pkl"), pickle.dumps(checkpoint))
         write_run_files(self.run_dir, self.settings, self.best, self.rows)
@@ -357,8 +359,16 @@ def device_name() -> str:
     return kind if kind == device.platform else f"{device.platform} ({kind})"
 
 
-def train(settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], resume: bool):
+def train(
+    settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], state: dict | None
+) -> _Run:
     """Trains with Brax's PPO, validating and checkpointing on the CPU as it goes.
+
+    Args:
+      settings: The run's settings.
+      run_dir: The run directory.
+      log: Receives a line per validation.
+      state: The checkpoint to resume from (`resume_state`), or None to start afresh.
 
     Returns:
       The run's `_Run` record (best policy, progress rows, validation and wall time).
@@ -367,7 +377,6 @@ def train(settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], re
 
     from cpg_suite.mjx import training
 
-    state = _resume_state(run_dir, settings) if resume else None
     record = _Run(
         run_dir=run_dir,
         settings=settings,
@@ -378,6 +387,7 @@ def train(settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], re
         validation_sim_steps=state["validation_sim_steps"] if state else 0,
         train_wall_s=state["train_wall_s"] if state else 0.0,
         device=state.get("device", "") if state else "",
+        environment=state.get("environment", {}) if state else runs.environment_record(),
         resumed=state is not None,
     )
     if state:  # the files may lag the checkpoint if the run stopped between the writes
@@ -405,14 +415,37 @@ def train(settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], re
     return record
 
 
-def _resume_state(run_dir: str, settings: PPOMJXSettings) -> dict | None:
+def resume_state(run_dir: str, settings: PPOMJXSettings) -> dict | None:
+    """The run's checkpoint, if it may be resumed with these settings.
+
+    Args:
+      run_dir: The run directory.
+      settings: The settings of the resumed run (only the test_* ones may differ).
+
+    Returns:
+      The checkpoint's contents, or None if the run has none.
+
+    Raises:
+      cli.UsageError: The checkpoint was written by other training settings, or it has
+        training left and was trained on another kind of device (a GPU run scored on a CPU
+        machine must have reached `total_steps`; it would otherwise go on training there).
+    """
     path = os.path.join(run_dir, "checkpoint.pkl")
     if not os.path.exists(path):
         return None
     with open(path, "rb") as f:
         state = pickle.load(f)
-    if _training_settings(state["settings"]) != _training_settings(dataclasses.asdict(settings)):
+    saved = {**dataclasses.asdict(PPOMJXSettings()), **state["settings"]}  # older: defaults
+    if _training_settings(saved) != _training_settings(dataclasses.asdict(settings)):
         raise cli.UsageError(f"{path} was written by other settings; pass --overwrite")
+    left = settings.total_steps - state["env_steps"]
+    trained_on = state.get("device", "").split(" + ")[-1].split(" ")[0]
+    here = device_name().split(" ")[0]
+    if left > 0 and trained_on and trained_on != here:
+        raise cli.UsageError(
+            f"{path} was trained on {trained_on} and has {left:,} env steps left: resume it "
+            f"on a {trained_on}, or pass --overwrite"
+        )
     return state
 
 
@@ -450,10 +483,15 @@ def run(
         overwrite=options.overwrite,
         resume=options.resume,
     )
+    state = resume_state(run_dir, settings) if options.resume else None
     runs.write_config(
-        run_dir, settings, runs.command_line("baselines.ppo_mjx", dataclasses.asdict(settings))
+        run_dir,
+        settings,
+        runs.command_line("baselines.ppo_mjx", dataclasses.asdict(settings)),
+        # where it was trained, when this call only scores or goes on training
+        extra={"training_environment": state.get("environment", {})} if state else None,
     )
-    record = train(settings, run_dir, log, options.resume)
+    record = train(settings, run_dir, log, state)
     summary = _summary(settings, record)
     if settings.test_seeds:
         policy = NumpyPolicy.load(os.path.join(run_dir, POLICY_FILE))
@@ -478,7 +516,7 @@ def _summary(settings: PPOMJXSettings, record: _Run) -> dict:
         "sim_steps": last["env_steps"] * 8,  # 8 MJX physics steps per control step
         "validation_sim_steps": record.validation_sim_steps,
         "train_wall_s": record.train_wall_s,
-        "device": record.device,
+        "device": record.device or "unknown",
         "selected": {
             "source": f"env_steps_{best['env_steps']}",
             "env_steps": best["env_steps"],

@@ -6,6 +6,7 @@ it is run by hand (README, "Training on a GPU"), not here.
 """
 
 import dataclasses
+import json
 import os
 import pickle
 import subprocess
@@ -159,12 +160,12 @@ def test_validation_keeps_the_best_policy_and_checkpoints(tmp_path):
     assert checkpoint["env_steps"] == 40 and checkpoint["settings"] == dataclasses.asdict(settings)
     assert checkpoint["validation_sim_steps"] == record.validation_sim_steps > 0
     assert os.path.exists(tmp_path / "progress.csv")
-    assert ppo_mjx._resume_state(str(tmp_path), settings)["env_steps"] == 40
+    assert ppo_mjx.resume_state(str(tmp_path), settings)["env_steps"] == 40
     resumed = ppo_mjx._Run(str(tmp_path), settings, lambda line: None, 40, None, [], resumed=True)
     resumed.on_params(0, None, other)  # Brax hands back the checkpoint's parameters first
     assert resumed.rows == [] and resumed.best is None
     with pytest.raises(cli.UsageError, match="other settings"):
-        ppo_mjx._resume_state(str(tmp_path), _settings(seed=1))
+        ppo_mjx.resume_state(str(tmp_path), _settings(seed=1))
 
 
 @pytest.mark.parametrize(
@@ -303,15 +304,39 @@ def test_a_run_trained_elsewhere_is_scored_on_resume(tmp_path):
     run_dir.mkdir(parents=True)
     record = ppo_mjx._Run(str(run_dir), trained, lambda line: None, 0, None, [])
     record.device = "gpu (a test device)"
+    record.environment = {"host": "the GPU machine"}
     for steps, seed in ((0, 0), (40, 1)):
         record.on_params(steps, None, _brax_params(env.observation_size, (8,), seed)[1])
     scoring = dataclasses.replace(trained, test_seeds=2, test_tiers=("darwin_walk",))
+    with pytest.raises(cli.UsageError, match="other settings"):  # training settings still bind
+        ppo_mjx.resume_state(str(run_dir), dataclasses.replace(scoring, seed=1))
+    checkpoint = run_dir / "checkpoint.pkl"
+    finished = checkpoint.read_bytes()
+    cut_short = pickle.loads(finished)
+    cut_short["env_steps"] = 0  # as if the GPU machine had stopped before the budget
+    checkpoint.write_bytes(pickle.dumps(cut_short))
+    with pytest.raises(cli.UsageError, match="trained on gpu and has 40 env steps left"):
+        ppo_mjx.resume_state(str(run_dir), scoring)
+    checkpoint.write_bytes(finished)
     options = ppo_mjx.runs.RunOptions(output_dir=str(tmp_path), resume=True)
     _, summary = ppo_mjx.run(scoring, options, log=lambda line: None)
     assert summary["device"] == "gpu (a test device)" and summary["env_steps"] == 40
     assert summary["test"]["tiers"]["darwin_walk"]["n"] == 2
-    with pytest.raises(cli.UsageError, match="other settings"):  # training settings still bind
-        ppo_mjx._resume_state(str(run_dir), dataclasses.replace(scoring, total_steps=80))
+    config = json.loads((run_dir / "config.json").read_text())
+    assert config["training_environment"] == {"host": "the GPU machine"}
+    assert config["settings"]["test_seeds"] == 2
+
+
+def test_a_checkpoint_from_before_a_setting_existed_resumes_with_its_default(tmp_path):
+    settings = _settings()
+    record = ppo_mjx._Run(str(tmp_path), settings, lambda line: None, 0, None, [])
+    env = mjx_walk.WalkEnv("darwin_walk", "joints")
+    record.on_params(0, None, _brax_params(env.observation_size, (8,))[1])
+    path = tmp_path / "checkpoint.pkl"
+    state = pickle.loads(path.read_bytes())
+    del state["settings"]["solver_iterations"], state["device"], state["environment"]
+    path.write_bytes(pickle.dumps(state))
+    assert ppo_mjx.resume_state(str(tmp_path), settings)["env_steps"] == 0
 
 
 def test_solver_caps_are_parsed():

@@ -269,17 +269,18 @@ def command_line(module: str, settings: dict) -> str:
     return shlex.join(["python", "-m", module] + [p for p in parts if p is not None])
 
 
-def write_config(run_dir: str, settings, command: str | None = None) -> None:
+def write_config(
+    run_dir: str, settings, command: str | None = None, extra: dict | None = None
+) -> None:
     """Writes `config.json`: every setting, the command that re-runs the run, the versions.
 
     Args:
       run_dir: The run directory.
       settings: A settings dataclass or a dict of settings.
       command: The command line that re-runs exactly this run (see `command_line`).
+      extra: More top-level entries (e.g. the environment an earlier call trained in).
     """
     if dataclasses.is_dataclass(settings):
         settings = dataclasses.asdict(settings)
-    write_json(
-        os.path.join(run_dir, "config.json"),
-        {"settings": settings, "command": command, "environment": environment_record()},
-    )
+    config = {"settings": settings, "command": command, "environment": environment_record()}
+    write_json(os.path.join(run_dir, "config.json"), {**config, **(extra or {})})
