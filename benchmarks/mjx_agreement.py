@@ -66,7 +66,14 @@ class AgreementSettings:
         )
 
     def solver_caps(self) -> tuple[int, int] | None:
-        """The solver caps, parsed (None: the model's own)."""
+        """The solver caps, parsed.
+
+        Returns:
+          `(iterations, line-search iterations)`, or None for the model's own.
+
+        Raises:
+          ValueError: Unless `solver_iterations` is empty or two integers ≥ 1 (`I,L`).
+        """
         if not self.solver_iterations:
             return None
         parts = self.solver_iterations.split(",")

@@ -83,7 +83,20 @@ def _spread(values: np.ndarray) -> str:
     return f"mean {values.mean():.2f}, p99 {np.percentile(values, 99):.0f}, max {values.max()}"
 
 
+def define_flags() -> None:
+    """Defines this script's command-line flags (only when it runs as a program)."""
+    d = SolverStatsSettings()
+    flags.DEFINE_string("params", d.params, "Preset or JSON file of the 11 amplitudes.")
+    flags.DEFINE_string("seeds", d.seeds, "Seeds of the CPU task: N, A-B or a comma list.")
+    flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")
+
+
 def main(argv: list[str]) -> None:
+    """Prints each seed's distance and its solver statistics, one line per seed.
+
+    Args:
+      argv: absl's leftover arguments (none are used).
+    """
     del argv
     settings = cli.settings_from_flags(SolverStatsSettings)
     amplitudes = parse_params(settings.params)
@@ -98,8 +111,5 @@ def main(argv: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    d = SolverStatsSettings()
-    flags.DEFINE_string("params", d.params, "Preset or JSON file of the 11 amplitudes.")
-    flags.DEFINE_string("seeds", d.seeds, "Seeds of the CPU task: N, A-B or a comma list.")
-    flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")
+    define_flags()
     cli.run(main)

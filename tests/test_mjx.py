@@ -391,8 +391,9 @@ def test_bad_arguments():
         walk.WalkEnv("darwin_walk", "torques")
     with pytest.raises(ValueError, match="posture"):
         walk.WalkEnv("darwin_walk", posture=np.zeros(11))
-    with pytest.raises(ValueError, match="solver_iterations"):
-        walk.WalkEnv("darwin_walk", solver_iterations=(0, 8))
+    for caps in ((0, 8), (4,), (4, 8, 2), (4.5, 8), ("4", "8"), (True, 8), 4):
+        with pytest.raises(ValueError, match="solver_iterations must be two integers"):
+            walk.WalkEnv("darwin_walk", solver_iterations=caps)
 
 
 def test_solver_caps_reach_the_mjx_model():

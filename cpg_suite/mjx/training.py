@@ -17,7 +17,8 @@ a fall is terminal.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -28,7 +29,7 @@ from brax.envs.wrappers import training as brax_wrappers
 from cpg_suite.mjx.walk import WalkEnv
 
 
-def replicated_put(tree, devices):
+def replicated_put(tree: Any, devices: Sequence[jax.Device]) -> Any:
     """One copy of each leaf per device, stacked on a new leading axis sharded over them.
 
     What `jax.device_put_replicated` did before JAX 0.10 removed it, written as the JAX
@@ -56,6 +57,9 @@ def brax_on_this_jax() -> Iterator[None]:
     which JAX 0.10 removed (google/brax#671, open). Where `jax` lacks it, the block lends
     it `replicated_put` under that name and takes it away on exit, so no process-wide state
     outlives the call; where `jax` still has its own, the block changes nothing.
+
+    Yields:
+      None, once: the body of the `with` block runs with the name in place.
     """
     if hasattr(jax, "device_put_replicated"):
         yield

@@ -130,8 +130,9 @@ class WalkEnv:
             `vmap` every robot pays for the full line search and for the slowest robot's
             iterations, so caps are much faster on a GPU (results/mjx); MuJoCo C on this
             model needs about 1.2-1.4 solver iterations per step and up to 7 line-search
-            evaluations (`benchmarks/mjx_agreement.py --solver_iterations` measures what a
-            cap changes).
+            evaluations, sampled once per control step (`benchmarks/solver_stats.py`;
+            not the same unit as MJX's line-search iterations).
+            `benchmarks/mjx_agreement.py --solver_iterations` measures what a cap changes.
 
         Raises:
           ValueError: On an unknown task or action space, a bad posture or solver caps.
@@ -154,12 +155,8 @@ class WalkEnv:
         self.init_noise = self.randomization.init_noise if randomized else darwin.INIT_NOISE
         self.mj_model = mujoco.MjModel.from_xml_string(*darwin.get_model_and_assets())
         if solver_iterations is not None:
-            if len(solver_iterations) != 2 or min(solver_iterations) < 1:
-                raise ValueError(
-                    f"solver_iterations must be two integers ≥ 1, got {solver_iterations!r}"
-                )
             opt = self.mj_model.opt
-            opt.iterations, opt.ls_iterations = (int(v) for v in solver_iterations)
+            opt.iterations, opt.ls_iterations = _solver_caps(solver_iterations)
         self.model = mjx.put_model(self.mj_model)
         self._layout(self.mj_model)
         self.n_substeps = int(round(darwin.CONTROL_TIMESTEP / self.mj_model.opt.timestep))
@@ -525,3 +522,17 @@ def trial_result(out: dict, start: np.ndarray) -> dict:
         "fall_step": last + 1 if fell.any() else None,
         "return": float(np.sum(np.asarray(out["reward"])[: last + 1])),
     }
+
+
+def _solver_caps(value) -> tuple[int, int]:
+    """`(iterations, line-search iterations)` as two integers ≥ 1, or ValueError."""
+    message = f"solver_iterations must be two integers ≥ 1, got {value!r}"
+    try:
+        caps = tuple(value)
+    except TypeError:
+        raise ValueError(message) from None
+    if len(caps) != 2 or not all(
+        isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1 for v in caps
+    ):
+        raise ValueError(message)
+    return int(caps[0]), int(caps[1])
