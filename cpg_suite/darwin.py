@@ -552,8 +552,15 @@ class Physics(mujoco.Physics):
         The normal force of a contact is the sum of its four pyramid-edge forces (condim 3,
         pyramidal cone: checked when the model is loaded), as `mj_contactForce` computes
         it; a plain loop over the few contacts is the fastest way on this hot path.
+
+        dm_control ends each step with `mj_step1`, which finds the contacts of the new state
+        but does not solve for their forces: `efc_force` then holds whatever the arena held
+        (it differed between processes). So the forces are solved here first
+        (`mj_forwardSkip` from the velocity stage, sensors skipped); the next step solves
+        them again from scratch, so the trajectory does not change (tests/test_darwin.py).
         """
         data = self.data.ptr
+        mj.mj_forwardSkip(self.model.ptr, data, mj.mjtStage.mjSTAGE_VEL, 1)
         force = [0.0, 0.0]
         weighted = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
         if data.ncon:

@@ -1,5 +1,7 @@
 """DARwIn-OP model and tasks: dimensions, masses, contacts, the hand-tuned gait."""
 
+import copy
+
 import mujoco as mj
 import numpy as np
 import pytest
@@ -213,16 +215,22 @@ def test_bad_task_arguments():
 
 
 def test_centre_of_pressure_matches_mj_contact_force():
-    """The fast COP path equals one built on MuJoCo's own mj_contactForce."""
+    """The fast COP path equals MuJoCo's own mj_contactForce on a copy put through mj_forward.
+
+    dm_control's step ends with `mj_step1` (contacts found, forces not solved), so the
+    reference solves the forces of the same state afresh on a copy of the data.
+    """
     env = cpg_suite.load("darwin_balance", task_kwargs={"random": 2})
     env.reset()
     physics = env.physics
-    model, data = physics.model.ptr, physics.data.ptr
+    model = physics.model.ptr
     pattern = cpg.CPG("hand_tuned")
     f6 = np.zeros(6)
     checked = 0
     for _ in range(300):
         env.step(physics.targets_to_action(pattern.step(0.016)))
+        data = copy.copy(physics.data.ptr)
+        mj.mj_forward(model, data)
         force_ref, weighted = np.zeros(2), np.zeros((2, 3))
         for i in range(data.ncon):
             g = tuple(data.contact.geom[i])
@@ -244,3 +252,23 @@ def test_centre_of_pressure_matches_mj_contact_force():
                 np.testing.assert_allclose(cop[foot], weighted[foot] / force_ref[foot], atol=1e-12)
                 checked += 1
     assert checked > 300  # both single and double support were seen
+
+
+def test_reading_the_foot_loads_leaves_the_trajectory_alone():
+    """Solving the contact forces for the balance reward changes no later state."""
+
+    def trajectory(read_loads: bool) -> np.ndarray:
+        env = cpg_suite.load("darwin_balance", task_kwargs={"random": 3})
+        env.reset()
+        pattern, states = cpg.CPG("hand_tuned"), []
+        for _ in range(200):
+            # Environment.step without the reward: before_step, the physics steps, after_step.
+            env.task.before_step(env.physics.targets_to_action(pattern.step(0.016)), env.physics)
+            env.physics.step(8)
+            env.task.after_step(env.physics)
+            if read_loads:
+                env.physics.centres_of_pressure()
+            states.append(env.physics.data.qpos.copy())
+        return np.array(states)
+
+    np.testing.assert_array_equal(trajectory(True), trajectory(False))
