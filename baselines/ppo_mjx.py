@@ -359,6 +359,11 @@ def device_name() -> str:
     return kind if kind == device.platform else f"{device.platform} ({kind})"
 
 
+def _platform(device: str) -> str:
+    """The platform of a `device_name` record ("gpu", "cpu"); the last one if it names several."""
+    return device.split(" + ")[-1].split(" ")[0]
+
+
 def train(
     settings: PPOMJXSettings, run_dir: str, log: Callable[[str], None], state: dict | None
 ) -> _Run:
@@ -439,9 +444,8 @@ def resume_state(run_dir: str, settings: PPOMJXSettings) -> dict | None:
     if _training_settings(saved) != _training_settings(dataclasses.asdict(settings)):
         raise cli.UsageError(f"{path} was written by other settings; pass --overwrite")
     left = settings.total_steps - state["env_steps"]
-    trained_on = state.get("device", "").split(" + ")[-1].split(" ")[0]
-    here = device_name().split(" ")[0]
-    if left > 0 and trained_on and trained_on != here:
+    trained_on = _platform(state.get("device", ""))
+    if left > 0 and trained_on and trained_on != _platform(device_name()):
         raise cli.UsageError(
             f"{path} was trained on {trained_on} and has {left:,} env steps left: resume it "
             f"on a {trained_on}, or pass --overwrite"
