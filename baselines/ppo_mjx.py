@@ -54,7 +54,7 @@ from absl import flags
 from cpg_suite import cli, progress, protocol
 from cpg_suite.harness import runs
 from cpg_suite.harness.exported import FILE as POLICY_FILE
-from cpg_suite.harness.exported import NumpyPolicy
+from cpg_suite.harness.exported import HEADS, NumpyPolicy
 from cpg_suite.mjx import walk as mjx_walk
 from cpg_suite.protocol import score
 
@@ -90,11 +90,20 @@ class PPOMJXSettings:
       unroll_length, batch_size, num_minibatches, num_updates_per_batch, learning_rate,
         entropy_cost, discounting, gae_lambda, clipping_epsilon, reward_scaling,
         max_grad_norm: Brax PPO's hyperparameters.
+      policy_head: "tanh_normal" (Brax's default: the network outputs the mean and the
+        softplus standard deviation of a Gaussian squashed by tanh) or "normal" (a Gaussian
+        mean, clipped by the task, with a state-independent log standard deviation that
+        starts at `init_noise_std`, the mean's layer initialized orthogonally with gain
+        `mean_init_scale`: the policy of Stable-Baselines3's PPO, `baselines.ppo`).
+      init_noise_std: "normal" head: the initial standard deviation.
+      mean_init_scale: "normal" head: gain of the mean layer's orthogonal initialization.
       policy_layers: Hidden layers of the policy network.
       value_layers: Hidden layers of the value network.
       solver_iterations: `(iterations, line-search iterations)` caps of MJX's solver in
         training (`WalkEnv(solver_iterations=...)`; empty: the model's own, the CPU
         reference's). Validation and the test card always run on the CPU reference.
+      contacts: Contact pairs MJX computes in training (`WalkEnv(contacts=...)`): "model"
+        (every pair, the CPU reference's) or "soles" (floor and soles only, faster).
     """
 
     task: str = "darwin_walk"
@@ -118,9 +127,13 @@ class PPOMJXSettings:
     clipping_epsilon: float = 0.2
     reward_scaling: float = 10.0
     max_grad_norm: float = 1.0
+    policy_head: str = "tanh_normal"
+    init_noise_std: float = 0.368  # e⁻¹: baselines.ppo's log_std_init = −1
+    mean_init_scale: float = 0.01  # SB3's gain for the action layer
     policy_layers: tuple[int, ...] = (128, 128, 128, 128)
     value_layers: tuple[int, ...] = (256, 256, 256, 256, 256)
     solver_iterations: tuple[int, ...] = ()
+    contacts: str = "model"
 
     def __post_init__(self):
         require = cli.require
@@ -150,7 +163,18 @@ class PPOMJXSettings:
         )
         tiers = cli.require_scoring(self.validation_seeds, self.test_seeds, self.test_tiers)
         object.__setattr__(self, "test_tiers", tiers)
-        for name in ("learning_rate", "clipping_epsilon", "reward_scaling", "max_grad_norm"):
+        require(
+            self.policy_head in HEADS,
+            f"--policy_head must be one of {', '.join(HEADS)}, got {self.policy_head!r}",
+        )
+        for name in (
+            "learning_rate",
+            "clipping_epsilon",
+            "reward_scaling",
+            "max_grad_norm",
+            "init_noise_std",
+            "mean_init_scale",
+        ):
             value = getattr(self, name)
             require(value > 0, f"--{name} must be > 0, got {value}")
         require(self.entropy_cost >= 0, f"--entropy_cost must be ≥ 0, got {self.entropy_cost}")
@@ -172,6 +196,10 @@ class PPOMJXSettings:
             f"got {self.solver_iterations!r}",
         )
         object.__setattr__(self, "solver_iterations", caps)
+        require(
+            self.contacts in mjx_walk.CONTACTS,
+            f"--contacts must be one of {', '.join(mjx_walk.CONTACTS)}, got {self.contacts!r}",
+        )
 
     @property
     def num_evals(self) -> int:
@@ -205,14 +233,21 @@ def export_policy(params, action_space: str) -> NumpyPolicy:
       action_space: "joints" or "cpg".
 
     Returns:
-      The policy.
+      The policy, with the head its parameters imply (`HEADS`).
     """
     normalizer, policy = params[0], params[1]
-    dense = policy["params"]
+    tree = policy["params"]
     arrays = {"mean": np.asarray(normalizer.mean), "std": np.asarray(normalizer.std)}
-    for i in range(len(dense)):
-        arrays[f"kernel_{i}"] = np.asarray(dense[f"hidden_{i}"]["kernel"])
-        arrays[f"bias_{i}"] = np.asarray(dense[f"hidden_{i}"]["bias"])
+    if "MLP_0" in tree:  # "normal": hidden layers, the mean's Dense_0, a log-std apart
+        dense = [tree["MLP_0"][f"hidden_{i}"] for i in range(len(tree["MLP_0"]))]
+        dense.append(tree["Dense_0"])
+        arrays["head"] = np.array("normal")
+    else:  # "tanh_normal": one MLP whose last layer gives mean and std
+        dense = [tree[f"hidden_{i}"] for i in range(len(tree))]
+        arrays["head"] = np.array("tanh_normal")
+    for i, layer in enumerate(dense):
+        arrays[f"kernel_{i}"] = np.asarray(layer["kernel"])
+        arrays[f"bias_{i}"] = np.asarray(layer["bias"])
     return NumpyPolicy(arrays, action_space)
 
 
@@ -234,9 +269,20 @@ def validate(policy: NumpyPolicy, settings: PPOMJXSettings) -> tuple[float, floa
 # Training.
 def brax_train_kwargs(settings: PPOMJXSettings) -> dict:
     """Brax `ppo.train`'s keyword arguments for the settings (without env and callbacks)."""
+    import jax
     from brax.training.agents.ppo import networks as ppo_networks
 
     from cpg_suite.mjx import training
+
+    head = {}
+    if settings.policy_head == "normal":
+        head = dict(
+            distribution_type="normal",
+            noise_std_type="log",
+            init_noise_std=settings.init_noise_std,
+            mean_kernel_init_fn=jax.nn.initializers.orthogonal,
+            mean_kernel_init_kwargs={"scale": settings.mean_init_scale},
+        )
 
     return dict(
         num_timesteps=settings.total_steps,
@@ -262,6 +308,7 @@ def brax_train_kwargs(settings: PPOMJXSettings) -> dict:
             ppo_networks.make_ppo_networks,
             policy_hidden_layer_sizes=settings.policy_layers,
             value_hidden_layer_sizes=settings.value_layers,
+            **head,
         ),
     )
 
@@ -411,7 +458,10 @@ def train(
             restore_params=state["params"],
         )
     walk_env = mjx_walk.WalkEnv(
-        settings.task, settings.action_space, solver_iterations=settings.solver_iterations or None
+        settings.task,
+        settings.action_space,
+        solver_iterations=settings.solver_iterations or None,
+        contacts=settings.contacts,
     )
     env = training.BraxWalkEnv(walk_env)
     record.clock = time.perf_counter()
@@ -571,10 +621,16 @@ def define_flags() -> None:
         "max_grad_norm",
     ):
         flags.DEFINE_float(name, getattr(d, name), f"Brax PPO: {name}.")
+    flags.DEFINE_string("policy_head", d.policy_head, f"One of {', '.join(HEADS)}.")
+    flags.DEFINE_float("init_noise_std", d.init_noise_std, "normal head: initial std.")
+    flags.DEFINE_float("mean_init_scale", d.mean_init_scale, "normal head: mean layer's gain.")
     flags.DEFINE_list("policy_layers", [str(v) for v in d.policy_layers], "Policy hidden layers.")
     flags.DEFINE_list("value_layers", [str(v) for v in d.value_layers], "Value hidden layers.")
     flags.DEFINE_list(
         "solver_iterations", [], "I,L: MJX solver caps in training (default the model's)."
+    )
+    flags.DEFINE_string(
+        "contacts", d.contacts, f"MJX contact pairs in training: {', '.join(mjx_walk.CONTACTS)}."
     )
     o = runs.RunOptions()
     flags.DEFINE_string("output_dir", o.output_dir, "Root of the output tree.")

@@ -58,6 +58,8 @@ _STANCE_FRACTION = 0.05  # of body weight: a foot carrying more is a stance foot
 _WALK_VIZ_SPEED = 0.2  # m/s shown as full reward colour.
 _BALANCE_VIZ_DISTANCE = 0.05  # m of COP offset shown as zero reward colour.
 
+FOOT_GEOMS = ("foot_l", "foot_r")  # the soles' collision boxes, left then right
+FLOOR_GEOM = "floor"
 ARM_JOINTS = (
     "ShoulderL",
     "ArmUpperL",
@@ -309,8 +311,8 @@ class Physics(mujoco.Physics):
         root = model.name2id("root", "joint")
         self._root_qpos = int(model.jnt_qposadr[root])
         self._root_dof = int(model.jnt_dofadr[root])
-        self._feet = np.array([model.name2id("foot_l", "geom"), model.name2id("foot_r", "geom")])
-        self._floor = model.name2id("floor", "geom")
+        self._feet = np.array([model.name2id(n, "geom") for n in FOOT_GEOMS])
+        self._floor = model.name2id(FLOOR_GEOM, "geom")
         self._foot_index = {int(self._feet[0]): 0, int(self._feet[1]): 1}
         if model.opt.cone != mj.mjtCone.mjCONE_PYRAMIDAL or np.any(
             model.geom_condim[[self._floor, *self._feet]] != 3

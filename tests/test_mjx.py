@@ -70,6 +70,14 @@ def cpg_env():
 
 
 @pytest.fixture(scope="module")
+def soles():
+    """The nominal tier computing the floor's and soles' contact pairs only, and its step."""
+    with jax.enable_x64(True):
+        env = walk.WalkEnv("darwin_walk", contacts="soles")
+        return env, _jit(env.step)
+
+
+@pytest.fixture(scope="module")
 def resets(joints):
     """64 resets of the randomized tier, each followed by the push tier's draws."""
     env, _ = joints
@@ -107,7 +115,7 @@ def _gait_actions(physics, steps: int, noise: float = 0.0) -> np.ndarray:
 
 def _feet_touch_each_other(physics) -> bool:
     """Whether the soles collide (box-box contacts, which MJX generates differently)."""
-    feet = {physics.model.name2id("foot_l", "geom"), physics.model.name2id("foot_r", "geom")}
+    feet = {physics.model.name2id(n, "geom") for n in darwin.FOOT_GEOMS}
     geoms = physics.data.contact.geom[: physics.data.ncon]
     return any(set(pair) == feet for pair in geoms.tolist())
 
@@ -247,7 +255,34 @@ def test_push_force_matches_cpu_schedule(joints):
 
 def test_steps_match_cpu_reading_by_reading(joints):
     """From the CPU's reset state, the same actions give the same readings and rewards."""
-    env, step = joints
+    _assert_readings_match_cpu(*joints)
+
+
+def test_sole_contacts_step_as_the_cpu(soles):
+    """With only the floor's and soles' pairs (12 of 114 contact slots, 68 of 476
+    constraint rows), a walking robot that touches with its soles alone reads the same as
+    the CPU reference, which computes every pair."""
+    env, step = soles
+    data = jax.jit(env.reset)(jax.random.key(0)).data
+    assert data._impl.contact.geom.shape == (12, 2) and data._impl.efc_J.shape[0] == 68
+    _assert_readings_match_cpu(env, step)
+
+
+def test_sole_contacts_leave_out_the_body(soles):
+    """A torso lying on the floor touches it in the full model and not with `soles`."""
+    env, _ = soles
+    full = walk.WalkEnv("darwin_walk")
+    data = mujoco.MjData(full.mj_model)
+    data.qpos[2] = 0.02  # the torso origin 2 cm above the floor, upright: its boxes sink in
+    mujoco.mj_forward(full.mj_model, data)
+    torso = full.mj_model.body("torso").id
+    assert any(full.mj_model.geom_bodyid[g] == torso for g in data.contact.geom.ravel())
+    mujoco.mj_forward(env.mj_model, data)
+    kept = {env.mj_model.geom(n).id for n in (darwin.FLOOR_GEOM, *darwin.FOOT_GEOMS)}
+    assert set(data.contact.geom.ravel()) <= kept
+
+
+def _assert_readings_match_cpu(env, step):
     cpu, _ = _cpu_env()
     state = env.state_from_mujoco(cpu.physics.data)
     actions = _gait_actions(cpu.physics, STEPS)
@@ -391,6 +426,8 @@ def test_bad_arguments():
         walk.WalkEnv("darwin_walk", "torques")
     with pytest.raises(ValueError, match="posture"):
         walk.WalkEnv("darwin_walk", posture=np.zeros(11))
+    with pytest.raises(ValueError, match="contacts must be one of"):
+        walk.WalkEnv("darwin_walk", contacts="feet")
     for caps in ((0, 8), (4,), (4, 8, 2), (4.5, 8), ("4", "8"), (True, 8), 4):
         with pytest.raises(ValueError, match="solver_iterations must be two integers"):
             walk.WalkEnv("darwin_walk", solver_iterations=caps)

@@ -26,15 +26,12 @@ from cpg_suite.mjx import training
 from cpg_suite.mjx import walk as mjx_walk
 
 
-def _brax_params(obs_size: int, layers=(16, 16), seed: int = 0):
-    """Brax PPO networks and parameters, the normalizer fed with data of scale ≠ 1."""
-    nets = ppo_networks.make_ppo_networks(
-        obs_size,
-        12,
-        preprocess_observations_fn=running_statistics.normalize,
-        policy_hidden_layer_sizes=layers,
-        value_hidden_layer_sizes=layers,
-    )
+def _brax_params(obs_size: int, layers=(16, 16), seed: int = 0, head: str = "tanh_normal"):
+    """Brax PPO networks and parameters as `ppo_mjx` builds them for a policy head, the
+    normalizer fed with data of scale ≠ 1."""
+    settings = _settings(policy_head=head, policy_layers=layers, value_layers=layers)
+    factory = ppo_mjx.brax_train_kwargs(settings)["network_factory"]
+    nets = factory(obs_size, 12, preprocess_observations_fn=running_statistics.normalize)
     key = jax.random.key(seed)
     k_pi, k_v, k_obs = jax.random.split(key, 3)
     normalizer = running_statistics.init_state(jax.ShapeDtypeStruct((obs_size,), jnp.float32))
@@ -44,19 +41,39 @@ def _brax_params(obs_size: int, layers=(16, 16), seed: int = 0):
     return nets, params
 
 
-def test_numpy_policy_is_brax_deterministic_policy(tmp_path):
+@pytest.mark.parametrize("head", ["tanh_normal", "normal"])
+def test_numpy_policy_is_brax_deterministic_policy(tmp_path, head):
     obs_size = 62
-    nets, params = _brax_params(obs_size)
+    nets, params = _brax_params(obs_size, head=head)
+    if head == "normal":  # a mean that leaves [−1, 1] too: the task clips it
+        params[1]["params"]["Dense_0"]["kernel"] *= 300.0
     brax_policy = ppo_networks.make_inference_fn(nets)(params, deterministic=True)
     obs = 3.0 + 2.0 * np.random.default_rng(1).standard_normal((32, obs_size))
     expected, _ = brax_policy(jnp.asarray(obs, jnp.float32), jax.random.key(0))
+    expected = np.clip(np.asarray(expected), -1.0, 1.0)
+    if head == "normal":
+        assert 0.05 < np.mean(np.abs(expected) == 1.0) < 0.95
     policy = ppo_mjx.export_policy(params, "joints")
-    np.testing.assert_allclose(policy.act(obs), np.asarray(expected), atol=2e-5)
+    assert policy.head == head
+    np.testing.assert_allclose(policy.act(obs), expected, atol=2e-5)
     path = str(tmp_path / "policy.npz")
     policy.save(path)
     loaded = ppo_mjx.NumpyPolicy.load(path)
-    assert loaded.action_space == "joints" and len(loaded.layers) == 3
+    assert loaded.action_space == "joints" and len(loaded.layers) == 3 and loaded.head == head
     np.testing.assert_array_equal(loaded.act(obs), policy.act(obs))
+
+
+def test_normal_head_starts_near_the_zero_action_with_its_noise():
+    """SB3's policy, which `baselines.ppo` trains: a mean near 0 (the `cpg` space's
+    open-loop gait) and the standard deviation asked for."""
+    nets, params = _brax_params(62, head="normal")
+    obs = jnp.asarray(np.random.default_rng(2).standard_normal((64, 62)), jnp.float32)
+    mean, std = nets.policy_network.apply(params[0], params[1], obs)
+    assert np.max(np.abs(mean)) < 0.1
+    np.testing.assert_allclose(std, ppo_mjx.PPOMJXSettings().init_noise_std, rtol=1e-6)
+    # Brax's default head starts far from it (every validation trial of the H100 run fell)
+    tanh_actions = ppo_mjx.export_policy(_brax_params(62)[1], "joints").act(np.asarray(obs))
+    assert np.max(np.abs(tanh_actions)) > 0.3
 
 
 @pytest.mark.parametrize("action_space", ["joints", "cpg"])
@@ -180,6 +197,9 @@ def test_validation_keeps_the_best_policy_and_checkpoints(tmp_path):
         (dict(solver_iterations=(0, 8)), "--solver_iterations"),
         (dict(solver_iterations=("a", "b")), "--solver_iterations"),
         (dict(solver_iterations=(4,)), "--solver_iterations"),
+        (dict(contacts="feet"), "--contacts"),
+        (dict(policy_head="beta"), "--policy_head"),
+        (dict(init_noise_std=0.0), "--init_noise_std"),
     ],
 )
 def test_settings_reject_bad_values(kw, words):

@@ -2,7 +2,8 @@
 
 The format of `selected_policy.npz` (written by `NumpyPolicy.save`; `baselines.ppo_mjx`
 exports Brax's PPO to it): `mean`, `std` (observation normalization), `kernel_<i>`,
-`bias_<i>` (the dense layers, input first) and `action_space` ("joints" or "cpg").
+`bias_<i>` (the dense layers, input first), `action_space` ("joints" or "cpg") and `head`
+(`HEADS`; files without it are "tanh_normal").
 `cpg_suite.protocol.verify` re-scores shipped runs of this format.
 """
 
@@ -19,30 +20,38 @@ from cpg_suite.harness import runs
 
 FILE = "selected_policy.npz"
 ACTION_SPACES = residual.ACTION_SPACES
+# How the last layer's output becomes the deterministic action: "tanh_normal", the first
+# half (a tanh-Gaussian's mean) through tanh; "normal", all of it (a Gaussian's mean,
+# whose standard deviation is a parameter apart) clipped to [−1, 1] as the tasks clip it.
+HEADS = ("tanh_normal", "normal")
 
 
 class NumpyPolicy:
     """A policy trained elsewhere (e.g. Brax's PPO on MJX), run in the CPU task with NumPy.
 
-    The deterministic action of a tanh-Gaussian MLP policy: the observation vector
+    The deterministic action of a Gaussian MLP policy: the observation vector
     (`darwin.OBSERVATION_KEYS` in order, plus the CPG phase for `cpg`: the MJX env's) is
     normalized by running statistics, passed through the MLP (swish between layers) and
-    the first half of its output (the Gaussian's mean) through tanh. For the `cpg` action
+    its output made an action by the policy's head (`HEADS`). For the `cpg` action
     space the policy steps its own CPG row (`reset()` before each episode), as the MJX env
     does.
     """
 
     def __init__(self, arrays: dict[str, np.ndarray], action_space: str):
         """Args:
-          arrays: `mean`, `std` and `kernel_<i>`, `bias_<i>` for each layer.
+          arrays: `mean`, `std` and `kernel_<i>`, `bias_<i>` for each layer; `head`
+            (default "tanh_normal").
           action_space: "joints" or "cpg".
 
         Raises:
-          ValueError: On an unknown action space or missing layers.
+          ValueError: On an unknown action space or head, or missing layers.
         """
         if action_space not in ACTION_SPACES:
             raise ValueError(f"action_space must be one of {ACTION_SPACES}, got {action_space!r}")
         self.action_space = action_space
+        self.head = str(arrays.get("head", HEADS[0]))
+        if self.head not in HEADS:
+            raise ValueError(f"head must be one of {HEADS}, got {self.head!r}")
         self.mean = np.asarray(arrays["mean"], np.float64)
         self.std = np.asarray(arrays["std"], np.float64)
         n = sum(1 for k in arrays if k.startswith("kernel_"))
@@ -66,7 +75,7 @@ class NumpyPolicy:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The policy as the arrays of its file (`NumpyPolicy(arrays, action_space)` again)."""
-        arrays = {"mean": self.mean, "std": self.std}
+        arrays = {"mean": self.mean, "std": self.std, "head": np.array(self.head)}
         for i, (kernel, bias) in enumerate(self.layers):
             arrays[f"kernel_{i}"], arrays[f"bias_{i}"] = kernel, bias
         return arrays
@@ -89,6 +98,8 @@ class NumpyPolicy:
             x = x @ kernel + bias
             if i < len(self.layers) - 1:
                 x = x * special.expit(x)  # swish, without exp's overflow
+        if self.head == "normal":
+            return np.clip(x, -1.0, 1.0)
         return np.tanh(x[..., : x.shape[-1] // 2])
 
     def __call__(self, observation: dict) -> np.ndarray:

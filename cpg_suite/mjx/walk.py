@@ -46,6 +46,9 @@ from cpg_suite.mjx import modulated, physics, setconst
 
 TASKS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push")
 ACTION_SPACES = residual.ACTION_SPACES
+# Contact pairs MJX computes: "model", every pair of the MJCF (the CPU reference's);
+# "soles", only the pairs among the floor and the two soles (`sole_contacts_only`).
+CONTACTS = ("model", "soles")
 OBSERVATION_KEYS = darwin.OBSERVATION_KEYS
 OBSERVATION_SIZES = {k: n for k, n in zip(OBSERVATION_KEYS, (12, 12, 4, 1, 3, 3, 3, 2))}
 PHASE_SIZE = 2  # cos φ_L, sin φ_L appended in the `cpg` action space.
@@ -114,6 +117,7 @@ class WalkEnv:
         pushes: perturbations.Pushes | None = None,
         config: cpg.CPGConfig | None = None,
         solver_iterations: tuple[int, int] | None = None,
+        contacts: str = "model",
     ):
         """Builds the MJX model; call under `jax.enable_x64(True)` for float64 physics.
 
@@ -133,15 +137,24 @@ class WalkEnv:
             evaluations, sampled once per control step (`benchmarks/solver_stats.py`;
             not the same unit as MJX's line-search iterations).
             `benchmarks/mjx_agreement.py --solver_iterations` measures what a cap changes.
+          contacts: "model" computes every contact pair of the MJCF, as the CPU reference
+            does; "soles" only the pairs among the floor and the soles
+            (`sole_contacts_only`): the same physics as long as nothing else touches
+            (`benchmarks/contact_census.py` measures how long that is in the reference),
+            and about a seventh of the constraint rows, which MJX computes for every
+            pair whether it touches or not.
 
         Raises:
-          ValueError: On an unknown task or action space, a bad posture or solver caps.
+          ValueError: On an unknown task, action space or contacts, a bad posture or solver
+            caps.
         """
         if task_id not in TASKS:
             raise ValueError(f"unknown MJX task {task_id!r}; valid: {', '.join(TASKS)}")
         if action_space not in ACTION_SPACES:
             raise ValueError(f"action_space must be one of {ACTION_SPACES}, got {action_space!r}")
-        self.task_id, self.action_space = task_id, action_space
+        if contacts not in CONTACTS:
+            raise ValueError(f"contacts must be one of {CONTACTS}, got {contacts!r}")
+        self.task_id, self.action_space, self.contacts = task_id, action_space, contacts
         self.config = config or cpg.CPGConfig()
         posture = self.config.offsets() if posture is None else np.asarray(posture, float)
         if posture.shape != (12,) or not np.all(np.isfinite(posture)):
@@ -157,6 +170,8 @@ class WalkEnv:
         if solver_iterations is not None:
             opt = self.mj_model.opt
             opt.iterations, opt.ls_iterations = _solver_caps(solver_iterations)
+        if contacts == "soles":
+            sole_contacts_only(self.mj_model)
         self.model = mjx.put_model(self.mj_model)
         self._layout(self.mj_model)
         self.n_substeps = int(round(darwin.CONTROL_TIMESTEP / self.mj_model.opt.timestep))
@@ -178,8 +193,8 @@ class WalkEnv:
         self._torso = m.body("torso").id
         root = joint("root")
         self._root_qpos, self._root_dof = int(m.jnt_qposadr[root]), int(m.jnt_dofadr[root])
-        self._feet = np.array([m.geom("foot_l").id, m.geom("foot_r").id])
-        self._ground = np.array([m.geom("floor").id, *self._feet])
+        self._feet = np.array([m.geom(n).id for n in darwin.FOOT_GEOMS])
+        self._ground = np.array([m.geom(darwin.FLOOR_GEOM).id, *self._feet])
         self._hinge_dofs = m.jnt_dofadr[m.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]
 
         def sensor(name):
@@ -478,6 +493,21 @@ class WalkEnv:
             pushes=self.no_pushes(),
             cpg=row,
         )
+
+
+def sole_contacts_only(m: mujoco.MjModel) -> None:
+    """Turns off the collisions of every geom but the floor and the soles, in place.
+
+    What remains are the pairs floor-left sole, floor-right sole and left sole-right sole
+    (`darwin.FLOOR_GEOM`, `darwin.FOOT_GEOMS`): 12 of the model's 114 contact slots.
+
+    Args:
+      m: A DARwIn-OP model (`darwin.get_model_and_assets`).
+    """
+    kept = [m.geom(n).id for n in (darwin.FLOOR_GEOM, *darwin.FOOT_GEOMS)]
+    others = np.setdiff1d(np.arange(m.ngeom), kept)
+    m.geom_contype[others] = 0
+    m.geom_conaffinity[others] = 0
 
 
 def rollout(env: WalkEnv, state: State, actions: jax.Array) -> dict[str, jax.Array]:

@@ -38,6 +38,7 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
     cli.without_rendering()
 
+import contextlib
 import csv
 import json
 import os
@@ -104,17 +105,44 @@ def rescore(run_dir: str, seeds: int | None = None, threads: int = 2) -> tuple[d
     """
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     settings = _settings(config, seeds, threads)
-    if os.path.exists(os.path.join(run_dir, _EXPORTED)):
-        policy = exported.NumpyPolicy.load(os.path.join(run_dir, _EXPORTED))
+    policy = shipped_policy(run_dir)
+    if policy is None:
+        return score.score_gait_trials(_params(run_dir, settings.controller), settings)
+    with _policy_threads(run_dir):
         return score.score_policy_trials(policy, settings)
-    if os.path.exists(os.path.join(run_dir, _POLICY)):
-        from cpg_suite.harness import sb3  # the `rl` extra: only runs of policy learners
 
-        method = os.path.basename(os.path.dirname(os.path.dirname(os.path.abspath(run_dir))))
-        policy = sb3.load_shipped_policy(run_dir, method, config["settings"])
-        with sb3.single_threaded():
-            return score.score_policy_trials(policy, settings)
-    return score.score_gait_trials(_params(run_dir, settings.controller), settings)
+
+def shipped_policy(run_dir: str) -> Callable[[dict], np.ndarray] | None:
+    """A run's selected policy, or None if the run selected a gait.
+
+    Args:
+      run_dir: A run directory or a shipped run.
+
+    Returns:
+      The exported (`selected_policy.npz`) or Stable-Baselines3 (`selected_model.zip`)
+      policy, as `score.policy_trial` runs it; None for a gait run (`selected_params.json`).
+
+    Raises:
+      OSError, KeyError, ValueError: On a run without a readable config or policy.
+    """
+    if os.path.exists(os.path.join(run_dir, _EXPORTED)):
+        return exported.NumpyPolicy.load(os.path.join(run_dir, _EXPORTED))
+    if not os.path.exists(os.path.join(run_dir, _POLICY)):
+        return None
+    from cpg_suite.harness import sb3  # the `rl` extra: only runs of policy learners
+
+    config = runs.read_json(os.path.join(run_dir, "config.json"))
+    method = os.path.basename(os.path.dirname(os.path.dirname(os.path.abspath(run_dir))))
+    return sb3.load_shipped_policy(run_dir, method, config["settings"])
+
+
+def _policy_threads(run_dir: str):
+    """Single-threaded torch for an SB3 policy (its results then do not depend on threads)."""
+    if os.path.exists(os.path.join(run_dir, _POLICY)):
+        from cpg_suite.harness import sb3
+
+        return sb3.single_threaded()
+    return contextlib.nullcontext()
 
 
 def _jsonable(value):
