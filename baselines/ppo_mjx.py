@@ -13,8 +13,10 @@ time limit a truncation, a fall terminal). Each update collects `unroll_length` 
 `num_updates_per_batch` passes of `num_minibatches` minibatches minimizing the clipped
 surrogate loss (ratio clipped to 1 ± `clipping_epsilon`) + ½ value loss − `entropy_cost` ·
 entropy with Adam at `learning_rate`; observations are normalized by running statistics,
-actions are tanh-squashed Gaussians. Hyperparameters default to MuJoCo Playground's
-locomotion PPO settings.
+actions are tanh-squashed Gaussians (`--policy_head=normal`: Stable-Baselines3's Gaussian,
+whose mean starts near 0, the `cpg` space's open-loop gait). Hyperparameters default to
+MuJoCo Playground's locomotion PPO settings. `--contacts=soles` and
+`--solver_iterations=I,L` make the MJX physics cheaper in training (docs/decisions.md#ppo-on-mjx).
 
 Selection and scoring happen on the CPU reference, never in MJX: every
 `validation_every` env steps the deterministic policy is exported to NumPy

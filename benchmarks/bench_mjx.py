@@ -1,7 +1,7 @@
 r"""Control steps per second of the MJX walking env under `vmap` + `jit`, against the CPU.
 
   python benchmarks/bench_mjx.py [--batches=1,64,1024,8192] [--steps=20] [--cpu_envs=16]
-      [--iterations=N --ls_iterations=N]
+      [--iterations=N --ls_iterations=N] [--contacts=model,soles]
 
 For each batch size B, B robots are reset (`jax.vmap(WalkEnv.reset)`) and stepped `steps`
 control steps with the hand-tuned gait's actions by one jitted `jax.vmap(WalkEnv.step)`
@@ -11,7 +11,9 @@ same actions. Prints control steps/s of each and their ratio MJX / CPU. JAX runs
 default device (CPU here unless a GPU build and device are present; float32 unless
 `--x64`). `--iterations` / `--ls_iterations` cap MJX's constraint solver below the
 model's own 100 / 50 (results/mjx: the main cost under `vmap`, where every robot waits for
-the slowest); capped, the MJX physics is no longer the CPU reference's.
+the slowest); capped, the MJX physics is no longer the CPU reference's. `--contacts` lists
+the contact pairs to measure, each at every batch size in the same run (`WalkEnv(contacts=
+...)`: "model", every pair, or "soles", the floor's and soles' only).
 """
 
 from __future__ import annotations
@@ -46,6 +48,7 @@ class BenchMJXSettings:
       x64: float64 MJX physics (default float32, the precision of GPU training).
       iterations: MJX solver iterations (0, with `ls_iterations` 0: the model's own, 100).
       ls_iterations: MJX line-search iterations (0: the model's own, 50).
+      contacts: `WalkEnv`'s contact pairs, comma-separated (each measured in turn).
     """
 
     batches: str = "1,64,1024,8192"
@@ -56,6 +59,7 @@ class BenchMJXSettings:
     x64: bool = False
     iterations: int = 0
     ls_iterations: int = 0
+    contacts: str = "model"
 
     def __post_init__(self):
         cli.require(
@@ -71,6 +75,10 @@ class BenchMJXSettings:
             or (self.iterations == 0 and self.ls_iterations == 0),
             "--iterations and --ls_iterations must both be ≥ 1, or both 0 (the model's own), "
             f"got {self.iterations} and {self.ls_iterations}",
+        )
+        cli.require(
+            all(c in walk.CONTACTS for c in self.contacts.split(",")),
+            f"--contacts must be a comma list of {', '.join(walk.CONTACTS)}, got {self.contacts!r}",
         )
 
     def solver_iterations(self) -> tuple[int, int] | None:
@@ -136,7 +144,8 @@ def benchmark(settings: BenchMJXSettings) -> list[dict]:
       settings: Batch sizes, steps, the CPU env's size and threads, task, precision.
 
     Returns:
-      One row per batch size: `batch`, `mjx_steps_per_s`, `compile_s`, `ratio`.
+      One row per contact pairs and batch size: `contacts`, `batch`, `mjx_steps_per_s`,
+      `compile_s`, `ratio`.
     """
     actions = gait_actions(settings.steps)
     cpu = cpu_rate(settings, actions)
@@ -149,27 +158,31 @@ def benchmark(settings: BenchMJXSettings) -> list[dict]:
     )
     rows = []
     with jax.enable_x64(settings.x64):
-        env = walk.WalkEnv(settings.task, solver_iterations=settings.solver_iterations())
-        print(
-            f"solver: {env.mj_model.opt.iterations} iterations, "
-            f"{env.mj_model.opt.ls_iterations} line-search iterations",
-            flush=True,
-        )
-        for batch in settings.batch_list():
-            rate, compile_s = mjx_rate(env, batch, actions)
-            rows.append(
-                {
-                    "batch": batch,
-                    "mjx_steps_per_s": rate,
-                    "compile_s": compile_s,
-                    "ratio": rate / cpu,
-                }
+        for contacts in settings.contacts.split(","):
+            env = walk.WalkEnv(
+                settings.task, solver_iterations=settings.solver_iterations(), contacts=contacts
             )
             print(
-                f"B={batch:>5}: {rate:>10,.0f} control steps/s (compile {compile_s:.0f} s); "
-                f"MJX / CPU = {rate / cpu:.2f}",
+                f"contacts: {contacts} ({env.mj_model.opt.iterations} solver iterations, "
+                f"{env.mj_model.opt.ls_iterations} line-search iterations)",
                 flush=True,
             )
+            for batch in settings.batch_list():
+                rate, compile_s = mjx_rate(env, batch, actions)
+                rows.append(
+                    {
+                        "contacts": contacts,
+                        "batch": batch,
+                        "mjx_steps_per_s": rate,
+                        "compile_s": compile_s,
+                        "ratio": rate / cpu,
+                    }
+                )
+                print(
+                    f"B={batch:>5}: {rate:>10,.0f} control steps/s (compile {compile_s:.0f} s); "
+                    f"MJX / CPU = {rate / cpu:.2f}",
+                    flush=True,
+                )
     return rows
 
 
@@ -186,6 +199,7 @@ def define_flags() -> None:
     flags.DEFINE_integer(
         "ls_iterations", d.ls_iterations, "MJX line-search iterations (0: the model's)."
     )
+    flags.DEFINE_string("contacts", d.contacts, "Contact pairs to measure: model, soles.")
 
 
 def main(argv: list[str]) -> None:

@@ -1,7 +1,7 @@
 r"""A CPG gait (default hand-tuned) in the MJX env and in the CPU reference, from one state.
 
   python benchmarks/mjx_agreement.py [--params=hand_tuned] [--seeds=0-4] [--steps=1000] \
-      [--precisions=64,32] [--solver_iterations=4,8]
+      [--precisions=64,32] [--solver_iterations=4,8] [--contacts=soles]
 
 For each seed, the CPU task `darwin_walk` is reset with it (`evaluation.gait.evaluate_gait`
 runs the trial); its reset state is put into MJX (`WalkEnv.state_from_mujoco`) and the same
@@ -9,7 +9,8 @@ joint-target actions are stepped there, in float64 and in float32 (the precision
 training). Prints each trial's distance, lateral drift and fall in both, and the largest
 differences; for scale, also the CPU trial from a start moved by 1e-9 rad per leg joint.
 `--solver_iterations=I,L` caps MJX's constraint solver (`WalkEnv(solver_iterations=...)`)
-to see what a cap changes. Needs the `mjx` extra; runs on whatever device JAX picks.
+to see what a cap changes; `--contacts=soles` computes only the floor's and soles' contact
+pairs (`WalkEnv(contacts=...)`). Needs the `mjx` extra; runs on whatever device JAX picks.
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ class AgreementSettings:
       precisions: MJX float widths to run, comma-separated (64 and/or 32).
       solver_iterations: `I,L`: MJX's solver and line-search iteration caps ("": the
         model's own, as the CPU reference).
+      contacts: MJX's contact pairs (`walk.CONTACTS`; "model": every pair, as the CPU).
     """
 
     params: str = "hand_tuned"
@@ -55,9 +57,14 @@ class AgreementSettings:
     steps: int = 1000
     precisions: str = "64,32"
     solver_iterations: str = ""
+    contacts: str = "model"
 
     def __post_init__(self):
         cli.parse_seeds(self.seeds)
+        cli.require(
+            self.contacts in walk.CONTACTS,
+            f"--contacts must be one of {', '.join(walk.CONTACTS)}, got {self.contacts!r}",
+        )
         self.solver_caps()
         cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
         cli.require(
@@ -94,6 +101,7 @@ def mjx_trials(
     steps: int,
     x64: bool,
     solver_iterations: tuple[int, int] | None = None,
+    contacts: str = "model",
 ) -> list[dict]:
     """A gait in MJX from the CPU task's reset state for each seed.
 
@@ -103,6 +111,7 @@ def mjx_trials(
       steps: Control steps.
       x64: float64 physics (else float32).
       solver_iterations: MJX's solver caps (None: the model's own).
+      contacts: MJX's contact pairs (`walk.CONTACTS`).
 
     Returns:
       Per seed, as `walk.trial_result`, plus `seconds` (wall time; the first trial's
@@ -111,7 +120,7 @@ def mjx_trials(
     targets = cpg.trajectories(amplitudes, steps, darwin.CONTROL_TIMESTEP)
     results = []
     with jax.enable_x64(x64):
-        env = walk.WalkEnv("darwin_walk", solver_iterations=solver_iterations)
+        env = walk.WalkEnv("darwin_walk", solver_iterations=solver_iterations, contacts=contacts)
         run = jax.jit(functools.partial(walk.rollout, env))
         for seed in seeds:
             start = time.perf_counter()
@@ -172,7 +181,14 @@ def compare(settings: AgreementSettings) -> list[dict]:
     seeds = cli.parse_seeds(settings.seeds)
     amplitudes = parse_params(settings.params)
     mjx = {
-        bits: mjx_trials(amplitudes, seeds, settings.steps, bits == 64, settings.solver_caps())
+        bits: mjx_trials(
+            amplitudes,
+            seeds,
+            settings.steps,
+            bits == 64,
+            settings.solver_caps(),
+            settings.contacts,
+        )
         for bits in settings.precision_list()
     }
     keys = ("distance_m", "lateral_m", "fall_step")
@@ -207,6 +223,7 @@ def define_flags() -> None:
     flags.DEFINE_string(
         "solver_iterations", d.solver_iterations, "I,L: MJX solver caps (default the model's)."
     )
+    flags.DEFINE_string("contacts", d.contacts, f"MJX contact pairs: {', '.join(walk.CONTACTS)}.")
 
 
 def main(argv: list[str]) -> None:
