@@ -19,11 +19,13 @@ def _readme() -> str:
 
 
 # MJX must match MuJoCo's minor version (mujoco-mjx 3.17 with mujoco 3.17). JAX: tested with
-# 0.9.2 and 0.10.2 (CPU) and 0.11.2 (CUDA 13, H100); Brax 0.14.2's PPO needs
-# jax.device_put_replicated, which JAX 0.10 removed, and gets it from
-# cpg_suite.mjx.training.brax_on_this_jax. gymnasium: the CPG action space's constants live
-# in cpg_suite.residual.
-_JAX = ">=0.9.2,<0.12"
+# 0.9.2 (CPU) and 0.11.2 (CUDA 13, H100). Not 0.10.* nor 0.11.0: their jaxlib splits a
+# batched LAPACK call (MJX's Cholesky under vmap) over XLA's CPU thread pool and waits for
+# the pieces from inside that pool, which deadlocks on the CPU (tests/test_jax_cpu.py;
+# docs/decisions.md#jax-versions). Brax 0.14.2's PPO needs jax.device_put_replicated, which
+# JAX 0.10 removed, and gets it from cpg_suite.mjx.training.brax_on_this_jax. gymnasium: the
+# CPG action space's constants live in cpg_suite.residual.
+_JAX = ">=0.9.2,!=0.10.*,!=0.11.0,<0.12"
 _MJX_COMMON = [
     "mujoco==3.17.*",
     "mujoco-mjx==3.17.*",
