@@ -29,6 +29,7 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 import csv
 import dataclasses
 import json
+import math
 import os
 import subprocess
 import sys
@@ -39,6 +40,8 @@ from absl import flags
 
 from analysis import leaderboard
 from cpg_suite import cli
+
+POLICY_LEARNERS = ("ppo", "ppo_mjx")  # methods whose runs train a policy, not a gait
 
 
 def _plt():
@@ -104,13 +107,26 @@ def cem_rounds(found: list[dict], out: str) -> str | None:
 
 
 def _validation_rows(run: dict) -> list[dict]:
-    """The progress rows of a run that carry a validation score."""
-    return [r for r in _read_csv(os.path.join(run["dir"], "progress.csv")) if r.get("validation_m")]
+    """The progress rows of a run that carry a validation score (with `physics_steps` from
+    the summary's physics steps per env step where a row has env steps only: PPO on MJX)."""
+    rows = [r for r in _read_csv(os.path.join(run["dir"], "progress.csv")) if r.get("validation_m")]
+    summary = run["summary"]
+    if summary.get("env_steps") and summary.get("sim_steps"):
+        per_env_step = summary["sim_steps"] / summary["env_steps"]
+        for r in rows:
+            if not (r.get("sim_steps") or r.get("physics_steps")) and r.get("env_steps"):
+                r["physics_steps"] = float(r["env_steps"]) * per_env_step
+    return rows
 
 
 def _physics_steps(row: dict) -> float:
     """A progress row's training physics steps (optimizers: `sim_steps`; PPO: `physics_steps`)."""
     return float(row.get("sim_steps") or row["physics_steps"])
+
+
+def _policy_learner(run: dict) -> bool:
+    """Whether a run trained a policy (PPO, PPO on MJX) rather than searched gaits."""
+    return run["method"] in POLICY_LEARNERS
 
 
 def score_vs_budget(found: list[dict], out: str) -> str | None:
@@ -123,7 +139,7 @@ def score_vs_budget(found: list[dict], out: str) -> str | None:
             continue
         rows = _validation_rows(run)
         if rows:
-            trials = run["summary"].get("evaluations") or 0
+            trials = math.inf if _policy_learner(run) else run["summary"].get("evaluations") or 0
             groups[(run["task"], run["method"], run["config"])].append((rows, trials))
     if not groups:
         return None
@@ -149,14 +165,14 @@ def score_vs_budget(found: list[dict], out: str) -> str | None:
 def learning_curves(found: list[dict], out: str) -> str | None:
     """Deep-RL learning curves: validation score against training physics steps, one panel
     per training tier, a thin line per seed and a thick line for the mean over seeds of
-    each configuration (the PPO action spaces)."""
+    each configuration (the PPO and PPO-on-MJX action spaces)."""
     groups = defaultdict(list)
     for run in found:
-        if run["method"] != "ppo":
+        if not _policy_learner(run):
             continue
         rows = _validation_rows(run)
         if rows:
-            groups[(run["task"], run["config"])].append(rows)
+            groups[(run["task"], f"{run['method']} {run['config']}")].append(rows)
     if not groups:
         return None
     plt = _plt()
@@ -172,7 +188,7 @@ def learning_curves(found: list[dict], out: str) -> str | None:
             n = min(len(rows) for rows in seeds)
             steps = [_physics_steps(r) / 1e6 for r in seeds[0][:n]]
             mean = np.mean([[float(r["validation_m"]) for r in rows[:n]] for rows in seeds], 0)
-            label = f"ppo {config} ({len(seeds)} seed{'s' * (len(seeds) > 1)})"
+            label = f"{config} ({len(seeds)} seed{'s' * (len(seeds) > 1)})"
             ax.plot(steps, mean, color=color, lw=2, label=label)
         ax.set_title(task, fontsize=9)
         ax.set_xlabel("training budget (million physics steps)")

@@ -12,11 +12,14 @@ time limit a truncation, a fall terminal). Each update collects `unroll_length` 
 `discounting`, λ = `gae_lambda`) on rewards × `reward_scaling`, and makes
 `num_updates_per_batch` passes of `num_minibatches` minibatches minimizing the clipped
 surrogate loss (ratio clipped to 1 ± `clipping_epsilon`) + ½ value loss − `entropy_cost` ·
-entropy with Adam at `learning_rate`; observations are normalized by running statistics,
-actions are tanh-squashed Gaussians (`--policy_head=normal`: Stable-Baselines3's Gaussian,
-whose mean starts near 0, the `cpg` space's open-loop gait). Hyperparameters default to
-MuJoCo Playground's locomotion PPO settings. `--contacts=soles` and
-`--solver_iterations=I,L` make the MJX physics cheaper in training (docs/decisions.md#ppo-on-mjx).
+entropy with Adam at `learning_rate`; observations are normalized by running statistics.
+The defaults are the configuration that learned to walk in the study's 2.5 M steps
+(results/mjx): Stable-Baselines3's Gaussian policy (`--policy_head=normal`, whose mean
+starts near 0, the `cpg` space's open-loop gait), its PPO's passes and minibatches over
+256 robots, and the MJX physics made cheaper in training with the soles' contact pairs
+only and the line search capped at 8 (`--contacts=soles --solver_iterations=100,8`;
+`--contacts=model --solver_iterations=` train on the reference's). MuJoCo Playground's
+locomotion settings, for GPU budgets of 100 M+ steps, are in docs/decisions.md#ppo-on-mjx.
 
 Selection and scoring happen on the CPU reference, never in MJX: every
 `validation_every` env steps the deterministic policy is exported to NumPy
@@ -73,6 +76,16 @@ PROGRESS_FIELDS = [
 ]
 
 
+# Settings added after the first runs, with what a run recorded without them trained on.
+BEFORE_ADDED = {
+    "solver_iterations": (),
+    "contacts": "model",
+    "policy_head": "tanh_normal",
+    "init_noise_std": 0.368,
+    "mean_init_scale": 0.01,
+}
+
+
 @dataclasses.dataclass(frozen=True)
 class PPOMJXSettings:
     """The settings of a PPO-on-MJX run; all of them decide the result.
@@ -102,8 +115,8 @@ class PPOMJXSettings:
       policy_layers: Hidden layers of the policy network.
       value_layers: Hidden layers of the value network.
       solver_iterations: `(iterations, line-search iterations)` caps of MJX's solver in
-        training (`WalkEnv(solver_iterations=...)`; empty: the model's own, the CPU
-        reference's). Validation and the test card always run on the CPU reference.
+        training (`WalkEnv(solver_iterations=...)`; empty: the model's own 100 / 50, the
+        CPU reference's). Validation and the test card always run on the CPU reference.
       contacts: Contact pairs MJX computes in training (`WalkEnv(contacts=...)`): "model"
         (every pair, the CPU reference's) or "soles" (floor and soles only, faster).
     """
@@ -111,31 +124,31 @@ class PPOMJXSettings:
     task: str = "darwin_walk"
     action_space: str = "joints"
     total_steps: int = 2_500_000
-    num_envs: int = 8192
+    num_envs: int = 256
     seed: int = 0
     trial_steps: int = 1000
-    validation_every: int = 500_000
+    validation_every: int = 250_000
     validation_seeds: int = 10
     test_seeds: int = len(protocol.TEST)
     test_tiers: tuple[str, ...] = protocol.TIERS
-    unroll_length: int = 20
-    batch_size: int = 256
-    num_minibatches: int = 32
-    num_updates_per_batch: int = 4
+    unroll_length: int = 32
+    batch_size: int = 32
+    num_minibatches: int = 8
+    num_updates_per_batch: int = 10
     learning_rate: float = 3e-4
-    entropy_cost: float = 1e-2
-    discounting: float = 0.97
+    entropy_cost: float = 0.0
+    discounting: float = 0.99
     gae_lambda: float = 0.95
     clipping_epsilon: float = 0.2
     reward_scaling: float = 10.0
-    max_grad_norm: float = 1.0
-    policy_head: str = "tanh_normal"
+    max_grad_norm: float = 0.5
+    policy_head: str = "normal"
     init_noise_std: float = 0.368  # e⁻¹: baselines.ppo's log_std_init = −1
     mean_init_scale: float = 0.01  # SB3's gain for the action layer
-    policy_layers: tuple[int, ...] = (128, 128, 128, 128)
-    value_layers: tuple[int, ...] = (256, 256, 256, 256, 256)
-    solver_iterations: tuple[int, ...] = ()
-    contacts: str = "model"
+    policy_layers: tuple[int, ...] = (256, 256)
+    value_layers: tuple[int, ...] = (256, 256)
+    solver_iterations: tuple[int, ...] = (100, 8)
+    contacts: str = "soles"
 
     def __post_init__(self):
         require = cli.require
@@ -399,6 +412,22 @@ def _to_numpy(tree):
     return jax.tree.map(np.asarray, tree)
 
 
+LEARNER_PACKAGES = ("jax", "jaxlib", "mujoco-mjx", "brax", "flax", "optax")  # what trains
+
+
+def training_environment() -> dict:
+    """`runs.environment_record()` with the versions of the JAX packages that train."""
+    from importlib import metadata
+
+    record = runs.environment_record()
+    for name in LEARNER_PACKAGES:
+        try:
+            record[f"{name.replace('-', '_')}_version"] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            record[f"{name.replace('-', '_')}_version"] = None
+    return record
+
+
 def device_name() -> str:
     """The JAX device that trains (e.g. "gpu (NVIDIA H100 80GB HBM3)", or "cpu")."""
     import jax
@@ -441,7 +470,7 @@ def train(
         validation_sim_steps=state["validation_sim_steps"] if state else 0,
         train_wall_s=state["train_wall_s"] if state else 0.0,
         device=state.get("device", "") if state else "",
-        environment=state.get("environment", {}) if state else runs.environment_record(),
+        environment=state.get("environment", {}) if state else training_environment(),
         resumed=state is not None,
     )
     if state:  # the files may lag the checkpoint if the run stopped between the writes
@@ -492,7 +521,7 @@ def resume_state(run_dir: str, settings: PPOMJXSettings) -> dict | None:
         return None
     with open(path, "rb") as f:
         state = pickle.load(f)
-    saved = {**dataclasses.asdict(PPOMJXSettings()), **state["settings"]}  # older: defaults
+    saved = {**dataclasses.asdict(PPOMJXSettings()), **BEFORE_ADDED, **state["settings"]}
     if _training_settings(saved) != _training_settings(dataclasses.asdict(settings)):
         raise cli.UsageError(f"{path} was written by other settings; pass --overwrite")
     left = settings.total_steps - state["env_steps"]
@@ -629,7 +658,9 @@ def define_flags() -> None:
     flags.DEFINE_list("policy_layers", [str(v) for v in d.policy_layers], "Policy hidden layers.")
     flags.DEFINE_list("value_layers", [str(v) for v in d.value_layers], "Value hidden layers.")
     flags.DEFINE_list(
-        "solver_iterations", [], "I,L: MJX solver caps in training (default the model's)."
+        "solver_iterations",
+        [str(v) for v in d.solver_iterations],
+        "I,L: MJX solver caps in training; empty (--solver_iterations=): the model's own.",
     )
     flags.DEFINE_string(
         "contacts", d.contacts, f"MJX contact pairs in training: {', '.join(mjx_walk.CONTACTS)}."

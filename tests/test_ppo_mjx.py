@@ -347,21 +347,29 @@ def test_a_run_trained_elsewhere_is_scored_on_resume(tmp_path):
     assert config["settings"]["test_seeds"] == 2
 
 
-def test_a_checkpoint_from_before_a_setting_existed_resumes_with_its_default(tmp_path):
-    settings = _settings()
-    record = ppo_mjx._Run(str(tmp_path), settings, lambda line: None, 0, None, [])
+def test_a_checkpoint_from_before_a_setting_existed_resumes_with_what_it_trained_on(tmp_path):
+    """A checkpoint written before a setting existed trained on what the code did then
+    (`BEFORE_ADDED`), not on today's default: it resumes under the former only."""
+    trained = _settings(**ppo_mjx.BEFORE_ADDED)
+    record = ppo_mjx._Run(str(tmp_path), trained, lambda line: None, 0, None, [])
     env = mjx_walk.WalkEnv("darwin_walk", "joints")
     record.on_params(0, None, _brax_params(env.observation_size, (8,))[1])
     path = tmp_path / "checkpoint.pkl"
     state = pickle.loads(path.read_bytes())
-    del state["settings"]["solver_iterations"], state["device"], state["environment"]
+    for name in ppo_mjx.BEFORE_ADDED:
+        del state["settings"][name]
+    del state["device"], state["environment"]
     path.write_bytes(pickle.dumps(state))
-    assert ppo_mjx.resume_state(str(tmp_path), settings)["env_steps"] == 0
+    assert ppo_mjx.resume_state(str(tmp_path), trained)["env_steps"] == 0
+    assert _settings() != trained  # today's defaults train on other physics and another head
+    with pytest.raises(cli.UsageError, match="other settings"):
+        ppo_mjx.resume_state(str(tmp_path), _settings())
 
 
 def test_solver_caps_are_parsed():
-    assert _settings().solver_iterations == ()
-    assert _settings(solver_iterations=["100", "8"]).solver_iterations == (100, 8)
+    assert _settings().solver_iterations == (100, 8)
+    assert _settings(solver_iterations=[]).solver_iterations == ()  # the model's own
+    assert _settings(solver_iterations=["4", "8"]).solver_iterations == (4, 8)
 
 
 def test_brax_gets_device_put_replicated_for_the_call_only():
@@ -379,3 +387,10 @@ def test_brax_gets_device_put_replicated_for_the_call_only():
     np.testing.assert_array_equal(
         training.replicated_put(tree, jax.local_devices()[:1])["w"][0], tree["w"]
     )
+
+
+def test_the_training_environment_names_the_jax_stack():
+    record = ppo_mjx.training_environment()
+    assert record["jax_version"] == jax.__version__
+    assert record["brax_version"] and record["mujoco_mjx_version"].startswith("3.17")
+    assert record["mujoco_version"] == record["mujoco_mjx_version"]  # MJX matches MuJoCo
