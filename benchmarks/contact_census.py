@@ -4,7 +4,7 @@ r"""Which bodies touch the floor in the CPU reference trials: the soles, or more
       [--tiers=darwin_walk,darwin_walk_randomized,darwin_walk_push] [--out=FILE]
 
 `cpg_suite.mjx.WalkEnv(contacts="soles")` keeps only the contact pairs among the floor and
-the two soles (`darwin.FLOOR_GEOM`, `darwin.FOOT_GEOMS`). MJX computes every pair of the
+the two soles (`darwin.GROUND_GEOMS`). MJX computes every pair of the
 model at every physics step whether it touches or not: 114 contact slots and 476
 constraint rows per robot (with the 20 joint limits), against 12 slots and 68 rows for the
 soles' pairs. That is the CPU reference's physics as long as no other geom touches
@@ -36,7 +36,6 @@ import os
 import numpy as np
 from absl import flags
 
-import cpg_suite
 from cpg_suite import cli, cpg, darwin, protocol
 from cpg_suite.protocol import score, verify
 
@@ -85,7 +84,7 @@ class CensusSettings:
 
 def kept_geoms(model) -> set[int]:
     """Ids of the geoms whose pairs `WalkEnv(contacts="soles")` keeps: floor and soles."""
-    return {model.name2id(n, "geom") for n in (darwin.FLOOR_GEOM, *darwin.FOOT_GEOMS)}
+    return {model.name2id(n, "geom") for n in darwin.GROUND_GEOMS}
 
 
 def other_contacts(physics, kept: set[int]) -> tuple[int, ...]:
@@ -106,13 +105,9 @@ def census_trial(policy, tier: str, seed: int, steps: int) -> dict:
       (physics steps with one), `first_other_contact_step` (control step, 1-based, 0:
       none) and `other_geoms` (their names, ';'-joined).
     """
-    env = cpg_suite.load(tier, task_kwargs={"random": seed, "time_limit": float("inf")})
-    if hasattr(policy, "reset"):
-        policy.reset()
-    observation = env.reset().observation
+    env, observation, n_sub = score.start_trial(policy, tier, seed)
     physics = env.physics
     kept = kept_geoms(physics.model)
-    n_sub = int(round(env.control_timestep() / physics.model.opt.timestep))
     _, fall_step, records = score.step_policy(
         policy,
         env.task,

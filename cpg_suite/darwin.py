@@ -60,6 +60,9 @@ _BALANCE_VIZ_DISTANCE = 0.05  # m of COP offset shown as zero reward colour.
 
 FOOT_GEOMS = ("foot_l", "foot_r")  # the soles' collision boxes, left then right
 FLOOR_GEOM = "floor"
+# The floor and the soles: every contact of the CPU reference's trials that did not fall
+# (benchmarks/contact_census.py), the pairs `mjx.WalkEnv(contacts="soles")` keeps.
+GROUND_GEOMS = (FLOOR_GEOM, *FOOT_GEOMS)
 ARM_JOINTS = (
     "ShoulderL",
     "ArmUpperL",

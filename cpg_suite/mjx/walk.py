@@ -194,7 +194,7 @@ class WalkEnv:
         root = joint("root")
         self._root_qpos, self._root_dof = int(m.jnt_qposadr[root]), int(m.jnt_dofadr[root])
         self._feet = np.array([m.geom(n).id for n in darwin.FOOT_GEOMS])
-        self._ground = np.array([m.geom(darwin.FLOOR_GEOM).id, *self._feet])
+        self._ground = np.array([m.geom(n).id for n in darwin.GROUND_GEOMS])
         self._hinge_dofs = m.jnt_dofadr[m.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]
 
         def sensor(name):
@@ -499,12 +499,12 @@ def sole_contacts_only(m: mujoco.MjModel) -> None:
     """Turns off the collisions of every geom but the floor and the soles, in place.
 
     What remains are the pairs floor-left sole, floor-right sole and left sole-right sole
-    (`darwin.FLOOR_GEOM`, `darwin.FOOT_GEOMS`): 12 of the model's 114 contact slots.
+    (`darwin.GROUND_GEOMS`): 12 of the model's 114 contact slots.
 
     Args:
       m: A DARwIn-OP model (`darwin.get_model_and_assets`).
     """
-    kept = [m.geom(n).id for n in (darwin.FLOOR_GEOM, *darwin.FOOT_GEOMS)]
+    kept = [m.geom(n).id for n in darwin.GROUND_GEOMS]
     others = np.setdiff1d(np.arange(m.ngeom), kept)
     m.geom_contype[others] = 0
     m.geom_conaffinity[others] = 0

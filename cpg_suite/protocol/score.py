@@ -260,13 +260,9 @@ def policy_trial(
       `distance_m`, `lateral_m`, `fell`, `fall_step` (1-based or 0), `sim_steps` and the
       gait-quality measures under `quality`.
     """
-    env = cpg_suite.load(tier, task_kwargs={"random": seed, "time_limit": float("inf")})
-    if hasattr(policy, "reset"):
-        policy.reset()
-    observation = env.reset().observation
+    env, observation, n_sub = start_trial(policy, tier, seed)
     physics = env.physics
     start = physics.torso_position()
-    n_sub = int(round(env.control_timestep() / physics.model.opt.timestep))
     last, fall_step, records = step_policy(policy, env.task, physics, observation, steps, n_sub)
     last = start if last is None else last
     distance = float(last[0] - start[0])
@@ -278,6 +274,21 @@ def policy_trial(
         "sim_steps": len(records),
         "quality": _quality(records, physics, distance),
     }
+
+
+def start_trial(policy, tier: str, seed: int) -> tuple:
+    """The start of `policy_trial`: the tier's environment reset with `seed` (no time
+    limit), the policy reset, the first observation and the physics steps per control step.
+
+    Returns:
+      `(env, observation, n_sub)`.
+    """
+    env = cpg_suite.load(tier, task_kwargs={"random": seed, "time_limit": float("inf")})
+    if hasattr(policy, "reset"):
+        policy.reset()
+    observation = env.reset().observation
+    n_sub = int(round(env.control_timestep() / env.physics.model.opt.timestep))
+    return env, observation, n_sub
 
 
 def step_policy(policy, task, physics, observation, steps: int, n_sub: int, record=None):
