@@ -56,7 +56,7 @@ from collections.abc import Callable
 import numpy as np
 from absl import flags
 
-from cpg_suite import cli, progress, protocol
+from cpg_suite import cli, darwin, progress, protocol
 from cpg_suite.harness import runs
 from cpg_suite.harness.exported import FILE as POLICY_FILE
 from cpg_suite.harness.exported import HEADS, NumpyPolicy
@@ -593,7 +593,7 @@ def _summary(settings: PPOMJXSettings, record: _Run) -> dict:
     return {
         "action_space": settings.action_space,
         "env_steps": last["env_steps"],
-        "sim_steps": last["env_steps"] * 8,  # 8 MJX physics steps per control step
+        "sim_steps": last["env_steps"] * darwin.physics_steps_per_control_step(),
         "validation_sim_steps": record.validation_sim_steps,
         "train_wall_s": record.train_wall_s,
         "device": record.device or "unknown",

@@ -142,6 +142,21 @@ def get_model_and_assets(
     return xml, assets
 
 
+def physics_steps_per_control_step(model: mj.MjModel | None = None) -> int:
+    """Physics steps in one control step: `CONTROL_TIMESTEP` over the model's timestep.
+
+    Args:
+      model: The compiled DARwIn-OP model (None: compiles `get_model_and_assets()`).
+
+    Returns:
+      The number of physics steps (8 for the shipped MJCF's 2 ms).
+    """
+    if model is None:
+        xml, assets = get_model_and_assets()
+        model = mj.MjModel.from_xml_string(xml, assets)
+    return int(round(CONTROL_TIMESTEP / model.opt.timestep))
+
+
 @SUITE.add("benchmarking")
 def walk(
     time_limit: float = DEFAULT_TIME_LIMIT,

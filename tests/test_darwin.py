@@ -189,6 +189,17 @@ def test_walk_reward_sums_to_the_distance():
     assert total == pytest.approx(physics.forward_position() - start, abs=1e-12)
 
 
+def test_physics_steps_per_control_step_is_what_the_task_steps():
+    """16 ms control steps over the MJCF's 2 ms: the count MJX and the summaries use."""
+    env = cpg_suite.load("darwin_walk", task_kwargs={"random": 1})
+    env.reset()
+    before = env.physics.data.time
+    env.step(np.zeros(env.action_spec().shape))
+    steps = round((env.physics.data.time - before) / env.physics.model.opt.timestep)
+    assert darwin.physics_steps_per_control_step() == steps == 8
+    assert darwin.physics_steps_per_control_step(env.physics.model.ptr) == 8
+
+
 def test_hand_tuned_gait_steps_in_place_without_falling():
     """Thesis Table 6.3: the hand-tuned amplitudes barely move (0.0036 u.d.)."""
     for seed in (0, 1):

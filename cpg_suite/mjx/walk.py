@@ -174,7 +174,7 @@ class WalkEnv:
             sole_contacts_only(self.mj_model)
         self.model = mjx.put_model(self.mj_model)
         self._layout(self.mj_model)
-        self.n_substeps = int(round(darwin.CONTROL_TIMESTEP / self.mj_model.opt.timestep))
+        self.n_substeps = darwin.physics_steps_per_control_step(self.mj_model)
         self.nominal_amplitudes = cpg.amplitudes_from("hand_tuned")
         self._data_shapes = None  # `mjx.step`'s output types, found on first use
 
