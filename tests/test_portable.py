@@ -1,5 +1,6 @@
 """Runs give the same bits on any x86-64 CPU: CPU-independent linear algebra, and short CEM
-and CMA-ES runs under forced OpenBLAS kernels and NumPy SIMD levels."""
+and CMA-ES runs and an exported policy's actions under forced OpenBLAS kernels and NumPy
+SIMD levels."""
 
 import json
 import os
@@ -24,6 +25,11 @@ def test_matmul_and_sums_match_numpy():
     assert portable.norm([3.0, 4.0]) == 5.0
     with pytest.raises(ValueError, match="cannot multiply"):
         portable.matmul(a, a)
+    for shape in ((7, 11, 5), (1, 256, 12), (2, 1, 3)):  # odd, even and single inner sizes
+        x, k = rng.standard_normal(shape[:2]), rng.standard_normal(shape[1:])
+        np.testing.assert_allclose(portable.pairwise_matmul(x, k), x @ k, rtol=1e-12, atol=1e-13)
+    with pytest.raises(ValueError, match="cannot multiply"):
+        portable.pairwise_matmul(a, a)
 
 
 def test_cholesky_of_definite_semidefinite_and_zero_matrices():
@@ -67,6 +73,18 @@ for name, run, settings in (
     summary.pop("wall_s")
     files = {f: runs.read_json(f"{run_dir}/{f}") for f in ("best_params.json", "mean_params.json")}
     out[name] = {"summary": summary, **files}
+# A policy exported to NumPy (PPO on MJX's format), its actions on 64 observations.
+from cpg_suite.harness import exported
+import numpy as np
+rng = np.random.default_rng(0)
+sizes = (40, 256, 256, 12)
+arrays = {"mean": rng.standard_normal(40), "std": rng.random(40) + 0.5, "head": "normal"}
+for i, (n, m) in enumerate(zip(sizes[:-1], sizes[1:])):
+    arrays[f"kernel_{i}"] = rng.standard_normal((n, m)) / np.sqrt(n)
+    arrays[f"bias_{i}"] = 0.1 * rng.standard_normal(m)
+policy = exported.NumpyPolicy(arrays, "joints")
+actions = np.concatenate([policy.act(rng.standard_normal((1, 40))) for _ in range(64)])
+out["numpy_policy_sha256"] = hashlib.sha256(actions.tobytes()).hexdigest()
 print(json.dumps(out))
 """
 

@@ -95,6 +95,22 @@ def test_update_card_restores_a_card_only_while_the_trials_hold(shipped, tmp_pat
     assert (copy / "summary.json").read_text() == stored
 
 
+def test_rescore_run_stores_the_trials_and_card_the_code_gives_now(shipped, tmp_path):
+    _, dest = shipped
+    copy = _copy(dest, tmp_path / "copy")
+    with open(copy / "trials.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    rows[0]["distance_m"] = repr(float(rows[0]["distance_m"]) + 0.5)  # as scored by other code
+    runs.write_rows_csv(str(copy / "trials.csv"), rows)
+    summary = json.loads((copy / "summary.json").read_text())
+    summary["test"]["all"]["fall_rate"]["value"] = 0.5
+    (copy / "summary.json").write_text(json.dumps(summary))
+    assert len(verify.verify_run(str(copy))) == 2
+    verify.rescore_run(str(copy))
+    assert verify.verify_run(str(copy)) == []
+    assert (copy / "trials.csv").read_bytes() == open(f"{dest}/trials.csv", "rb").read()
+
+
 def test_a_card_extends_an_older_one_only_by_new_keys():
     stored = {"all": {"n": 3, "quality": {"peak_joint_speed": 4.0}}}
     fresh = {"all": {"n": 3, "quality": {"peak_joint_speed": 4.0, "energy_per_m": 9.0}}}
@@ -120,3 +136,20 @@ def test_cli_without_artifacts_is_one_line(tmp_path):
     )
     assert out.returncode == 2
     assert out.stderr.splitlines() == [f"error: --artifacts={tmp_path}/none is not a directory"]
+
+
+def test_cli_rescore_of_a_missing_folder_is_one_line(tmp_path):
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cpg_suite.protocol.verify",
+            f"--artifacts={tmp_path}",
+            "--rescore=ppo_mjx",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 2
+    assert out.stderr.splitlines() == [f"error: --rescore=ppo_mjx is not a folder of {tmp_path}"]

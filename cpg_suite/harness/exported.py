@@ -15,7 +15,7 @@ import numpy as np
 from scipy import special
 
 import cpg_suite
-from cpg_suite import darwin, residual
+from cpg_suite import darwin, portable, residual
 from cpg_suite.harness import runs
 
 FILE = "selected_policy.npz"
@@ -32,9 +32,10 @@ class NumpyPolicy:
     The deterministic action of a Gaussian MLP policy: the observation vector
     (`darwin.OBSERVATION_KEYS` in order, plus the CPG phase for `cpg`: the MJX env's) is
     normalized by running statistics, passed through the MLP (swish between layers) and
-    its output made an action by the policy's head (`HEADS`). For the `cpg` action
-    space the policy steps its own CPG row (`reset()` before each episode), as the MJX env
-    does.
+    its output made an action by the policy's head (`HEADS`). For the `cpg` action space
+    the policy steps its own CPG row (`reset()` before each episode), as the MJX env does.
+    The layers multiply with `portable.pairwise_matmul`, not BLAS, whose kernel is chosen
+    per CPU and changes the last bits, and with them whole trials.
     """
 
     def __init__(self, arrays: dict[str, np.ndarray], action_space: str):
@@ -95,7 +96,7 @@ class NumpyPolicy:
         """Actions in [−1, 1] for (N, D) flat observations."""
         x = (np.asarray(features, np.float64) - self.mean) / self.std
         for i, (kernel, bias) in enumerate(self.layers):
-            x = x @ kernel + bias
+            x = portable.pairwise_matmul(x, kernel) + bias  # the same bits on any CPU
             if i < len(self.layers) - 1:
                 x = x * special.expit(x)  # swish, without exp's overflow
         if self.head == "normal":

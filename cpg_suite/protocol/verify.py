@@ -4,6 +4,7 @@ r"""Shipped leaderboard artifacts: make them from run directories, and re-score 
   python -m cpg_suite.protocol.verify --quick              # a sample, within a minute
   python -m cpg_suite.protocol.verify --ship_from=runs     # copy finished runs in first
   python -m cpg_suite.protocol.verify --update_cards       # after the card gains a measure
+  python -m cpg_suite.protocol.verify --rescore=ppo_mjx    # after a policy's arithmetic changed
 
 A shipped run is a folder `<artifacts>/<method>/<task>/<run_name>/` holding what stands
 behind its leaderboard row (docs/protocol.md#shipped-artifacts):
@@ -28,7 +29,10 @@ of each configuration and compares those trials only.
 
 When the score card gains a measure, `--update_cards` re-scores every shipped run, checks
 that every trial is unchanged (the gait does what it did), and only then rewrites the
-card in `summary.json` and records the versions it was scored with.
+card in `summary.json` and records the versions it was scored with. When the code that
+runs a shipped policy changes its arithmetic (not the policy), `--rescore=SUBFOLDER`
+re-scores the shipped runs under that part of the artifacts and stores their new cards
+and trials (`rescore_run`); the learning curves and validation scores stay as trained.
 """
 
 from __future__ import annotations
@@ -280,6 +284,30 @@ def update_card(run_dir: str, threads: int = 2) -> None:
     runs.write_json(versions_path, versions)
 
 
+def rescore_run(run_dir: str, threads: int = 2) -> None:
+    """Re-scores a shipped run and stores its card and trials, whatever they were.
+
+    For a change to the code that runs a shipped policy, not to the policy: its test card
+    and trials are made again and recorded with the versions they were scored with.
+
+    Args:
+      run_dir: A shipped run.
+      threads: Evaluator threads.
+
+    Raises:
+      OSError, KeyError, ValueError: On a run without a readable config or policy.
+    """
+    card, trials = rescore(run_dir, threads=threads)
+    summary_path = os.path.join(run_dir, "summary.json")
+    summary = runs.read_json(summary_path)
+    write_trials(os.path.join(run_dir, "trials.csv"), trials)
+    runs.write_json(summary_path, {**summary, "test": _jsonable({k: card[k] for k in _CARD_KEYS})})
+    versions_path = os.path.join(run_dir, "versions.json")
+    versions = runs.read_json(versions_path)
+    versions["scored_with"] = runs.environment_record()
+    runs.write_json(versions_path, versions)
+
+
 def verify_run(run_dir: str, quick: bool = False, threads: int = 2) -> list[str]:
     """Re-scores one shipped run; the differences from what it stores (empty: none).
 
@@ -349,6 +377,9 @@ def define_flags() -> None:
     flags.DEFINE_bool(
         "update_cards", False, "Re-score every shipped run and store its card (trials unchanged)."
     )
+    flags.DEFINE_string(
+        "rescore", None, "Re-score the shipped runs under this subfolder; store cards and trials."
+    )
 
 
 def main(argv: list[str]) -> None:
@@ -362,6 +393,16 @@ def main(argv: list[str]) -> None:
         )
         ship_all(values.ship_from, values.artifacts)
     cli.check(os.path.isdir(values.artifacts), f"--artifacts={values.artifacts} is not a directory")
+    if values.rescore is not None:
+        chosen = os.path.join(values.artifacts, values.rescore)
+        cli.check(
+            os.path.isdir(chosen),
+            f"--rescore={values.rescore} is not a folder of {values.artifacts}",
+        )
+        for run_dir in shipped_runs(chosen):
+            rescore_run(run_dir, values.threads)
+            progress.write(f"re-scored: {run_dir}")
+        return
     if values.update_cards:
         for run_dir in shipped_runs(values.artifacts):
             update_card(run_dir, values.threads)
