@@ -15,6 +15,14 @@ from __future__ import annotations
 import numpy as np
 
 
+def _matrices(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`a` and `b` as float64 matrices that can be multiplied (ValueError if not)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if a.ndim != 2 or b.ndim != 2 or a.shape[1] != b.shape[0]:
+        raise ValueError(f"cannot multiply shapes {a.shape} and {b.shape}")
+    return a, b
+
+
 def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """`a @ b` for 2-D arrays, summing over the inner index in increasing order.
 
@@ -28,9 +36,7 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     Raises:
       ValueError: If the inner dimensions differ.
     """
-    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
-    if a.ndim != 2 or b.ndim != 2 or a.shape[1] != b.shape[0]:
-        raise ValueError(f"cannot multiply shapes {a.shape} and {b.shape}")
+    a, b = _matrices(a, b)
     out = np.zeros((a.shape[0], b.shape[1]))
     for j in range(a.shape[1]):
         out += a[:, j, None] * b[None, j, :]
@@ -55,9 +61,7 @@ def pairwise_matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     Raises:
       ValueError: If the inner dimensions differ.
     """
-    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
-    if a.ndim != 2 or b.ndim != 2 or a.shape[1] != b.shape[0]:
-        raise ValueError(f"cannot multiply shapes {a.shape} and {b.shape}")
+    a, b = _matrices(a, b)
     terms = a[:, :, None] * b[None, :, :]
     while terms.shape[1] > 1:
         if terms.shape[1] % 2:
