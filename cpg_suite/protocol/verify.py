@@ -274,10 +274,14 @@ def update_card(run_dir: str, threads: int = 2) -> None:
     card, trials = rescore(run_dir, threads=threads)
     if trials != read_trials(os.path.join(run_dir, "trials.csv")):
         raise ValueError(f"{run_dir}: its trials changed; ship the run again instead")
+    _store_card(run_dir, card)
+
+
+def _store_card(run_dir: str, card: dict) -> None:
+    """Writes a fresh card into a shipped run's summary and the versions it was scored with."""
     summary_path = os.path.join(run_dir, "summary.json")
     summary = runs.read_json(summary_path)
-    summary["test"] = _jsonable({k: card[k] for k in _CARD_KEYS})
-    runs.write_json(summary_path, summary)
+    runs.write_json(summary_path, {**summary, "test": _jsonable({k: card[k] for k in _CARD_KEYS})})
     versions_path = os.path.join(run_dir, "versions.json")
     versions = runs.read_json(versions_path)
     versions["scored_with"] = runs.environment_record()
@@ -298,14 +302,8 @@ def rescore_run(run_dir: str, threads: int = 2) -> None:
       OSError, KeyError, ValueError: On a run without a readable config or policy.
     """
     card, trials = rescore(run_dir, threads=threads)
-    summary_path = os.path.join(run_dir, "summary.json")
-    summary = runs.read_json(summary_path)
     write_trials(os.path.join(run_dir, "trials.csv"), trials)
-    runs.write_json(summary_path, {**summary, "test": _jsonable({k: card[k] for k in _CARD_KEYS})})
-    versions_path = os.path.join(run_dir, "versions.json")
-    versions = runs.read_json(versions_path)
-    versions["scored_with"] = runs.environment_record()
-    runs.write_json(versions_path, versions)
+    _store_card(run_dir, card)
 
 
 def verify_run(run_dir: str, quick: bool = False, threads: int = 2) -> list[str]:

@@ -29,14 +29,12 @@ POSES = (  # (name, sole centre x, depth into tile A, roll deg, pitch deg)
 )
 
 
-def scene(x: float, depth: float, roll: float, pitch: float) -> str:
-    """The MJCF: the floor, two tiles and the sole box at the pose.
+def scene(foot, x: float, depth: float, roll: float, pitch: float) -> str:
+    """The MJCF: the floor, two tiles and a box of the `foot` geom's size at the pose.
 
     The sole's lowest point over tile A (a corner, or the face above A's edge) lies `depth`
     below A's top.
     """
-    xml, assets = darwin.get_model_and_assets()
-    foot = mujoco.MjModel.from_xml_string(xml, assets).geom("foot_l")
     half = perturbations.Terrain().tile / 2
     z = perturbations.tile_heights_to_z(np.array(TOPS))
     hz = foot.size[2]
@@ -70,9 +68,11 @@ def rows(names, pairs, dists, positions) -> list[str]:
 
 
 def main() -> None:
+    xml, assets = darwin.get_model_and_assets()
+    foot = mujoco.MjModel.from_xml_string(xml, assets).geom("foot_l")
     with jax.enable_x64(True):
-        for name, x, gap, roll, pitch in POSES:
-            m = mujoco.MjModel.from_xml_string(scene(x, gap, roll, pitch))
+        for name, x, depth, roll, pitch in POSES:
+            m = mujoco.MjModel.from_xml_string(scene(foot, x, depth, roll, pitch))
             d = mujoco.MjData(m)
             mujoco.mj_forward(m, d)
             names = [m.geom(i).name for i in range(m.ngeom)]
