@@ -46,6 +46,8 @@ import math
 
 import numpy as np
 
+from cpg_suite import portable
+
 # The 11 CEM parameters, thesis Sec. 6.2 order (units: degrees).
 AMPLITUDE_NAMES = (
     "balancing_hip",  # A_balancingHip, Eq. 5.3
@@ -237,12 +239,40 @@ def load_amplitudes(path: str) -> np.ndarray:
     return amplitudes_from(data)
 
 
-def primitive_basis(phases: np.ndarray, omega: float, config: CPGConfig) -> np.ndarray:
+# The nonzero entries of the basis (Eq. 5.3-5.12), per leg: (amplitude, joint, value, sign),
+# where the values are ω sin φ, ω cos φ and the flexion bump. sin(φ + π/2) = cos φ and
+# sin(φ + π) = −sin φ.
+_SIN, _COS, _BUMP = range(3)
+_BASIS_ENTRIES = (
+    (0, HROLL, _SIN, +1.0),  # Eq. 5.3, 5.4: balancing, hip and ankle roll
+    (1, AROLL, _SIN, +1.0),
+    (2, HPITCH, _BUMP, +1.0),  # Eq. 5.6-5.8: flexion of hip (+), knee (−),
+    (3, KNEE, _BUMP, -1.0),
+    (4, APITCH, _BUMP, -1.0),  # ankle (+AnkKnee − AnkHip)
+    (5, APITCH, _BUMP, +1.0),
+    (6, KNEE, _SIN, -1.0),  # Eq. 5.9, 5.10: flexKnee, flexAnk
+    (7, APITCH, _SIN, -1.0),
+    (8, HYAW, _COS, +1.0),  # Eq. 5.5: pelvis rotation
+    (9, HPITCH, _COS, +1.0),  # Eq. 5.11, 5.12: compass
+    (10, APITCH, _COS, +1.0),
+)
+_ENTRY_LEGS = np.repeat([0, 1], len(_BASIS_ENTRIES))
+_ENTRY_AMPLITUDES, _ENTRY_JOINTS, _ENTRY_VALUES, _ENTRY_SIGNS = (
+    np.tile(np.array(column), 2) for column in zip(*_BASIS_ENTRIES)
+)
+_ENTRY_JOINTS = _ENTRY_JOINTS.astype(int) + 6 * _ENTRY_LEGS
+_ENTRY_AMPLITUDES, _ENTRY_VALUES = _ENTRY_AMPLITUDES.astype(int), _ENTRY_VALUES.astype(int)
+
+
+def primitive_basis(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray:
     """∂ż/∂A: the primitives per unit amplitude (Eq. 5.3-5.12).
+
+    sin, cos and exp are `cpg_suite.portable`'s, so the basis has the same bits on every
+    CPU.
 
     Args:
       phases: Phases of the two legs, shape (..., 2) (left, right), rad.
-      omega: φ̇, rad/s.
+      omega: φ̇, rad/s: a number, or one per row of `phases` (shape (...)).
       config: The CPG configuration (flexion form, σ).
 
     Returns:
@@ -250,36 +280,20 @@ def primitive_basis(phases: np.ndarray, omega: float, config: CPGConfig) -> np.n
       degree of each amplitude.
     """
     phases = np.asarray(phases, dtype=np.float64)
-    out = np.zeros(phases.shape[:-1] + (N_AMPLITUDES, 12))
+    omega = np.asarray(omega, dtype=np.float64)[..., None]  # against the legs' axis
     s2 = config.sigma**2
-    for leg in (0, 1):
-        phi = phases[..., leg]
-        base = 6 * leg
-        sin_phi = np.sin(phi)
-        cos_phi = np.cos(phi)
-        wrapped = wrap_phase(phi)
-        gauss = np.exp(-wrapped * wrapped / (2.0 * s2))
-        if config.flexion_form == "gaussian_derivative":
-            bump = -omega * wrapped / s2 * gauss  # d/dt of exp(-φ̄²/2σ²)
-        else:
-            bump = omega / s2 * gauss  # As printed (no φ̄ factor).
-        # Below, sin(φ + π/2) = cos φ and sin(φ + π) = −sin φ.
-        # Eq. 5.3, 5.4: balancing, hip and ankle roll.
-        out[..., 0, base + HROLL] = omega * sin_phi
-        out[..., 1, base + AROLL] = omega * sin_phi
-        # Eq. 5.6-5.8: flexion of hip (+), knee (−), ankle (+AnkKnee − AnkHip).
-        out[..., 2, base + HPITCH] = bump
-        out[..., 3, base + KNEE] = -bump
-        out[..., 4, base + APITCH] = -bump
-        out[..., 5, base + APITCH] = bump
-        # Eq. 5.9, 5.10: flexKnee, sin(φ + π) = −sin φ.
-        out[..., 6, base + KNEE] = -omega * sin_phi
-        out[..., 7, base + APITCH] = -omega * sin_phi
-        # Eq. 5.5: pelvis rotation, sin(φ + π/2) = cos φ.
-        out[..., 8, base + HYAW] = omega * cos_phi
-        # Eq. 5.11, 5.12: compass.
-        out[..., 9, base + HPITCH] = omega * cos_phi
-        out[..., 10, base + APITCH] = omega * cos_phi
+    sin_phi, cos_phi = portable.sincos(phases)
+    wrapped = wrap_phase(phases)
+    gauss = portable.exp(-wrapped * wrapped / (2.0 * s2))
+    if config.flexion_form == "gaussian_derivative":
+        bump = -omega * wrapped / s2 * gauss  # d/dt of exp(-φ̄²/2σ²)
+    else:
+        bump = omega / s2 * gauss  # As printed (no φ̄ factor).
+    values = np.stack([omega * sin_phi, omega * cos_phi, bump], axis=-1)  # (..., 2, 3)
+    out = np.zeros(phases.shape[:-1] + (N_AMPLITUDES, 12))
+    out[..., _ENTRY_AMPLITUDES, _ENTRY_JOINTS] = (
+        values[..., _ENTRY_LEGS, _ENTRY_VALUES] * _ENTRY_SIGNS
+    )
     return out
 
 
@@ -434,7 +448,7 @@ def dmp_kernels(phase, n_kernels: int = N_KERNELS, width: float | None = None) -
     """
     h = 2.5 * n_kernels if width is None else width
     centres = 2.0 * np.pi * np.arange(n_kernels) / n_kernels
-    return np.exp(h * (np.cos(np.asarray(phase)[..., None] - centres) - 1.0))
+    return portable.exp(h * (portable.cos(np.asarray(phase)[..., None] - centres) - 1.0))
 
 
 def dmp_output(phase, theta: np.ndarray) -> np.ndarray:

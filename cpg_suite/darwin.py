@@ -47,12 +47,12 @@ from dm_control.rl import control
 from dm_control.utils import containers
 from dm_env import specs
 
-from cpg_suite import base, cpg, perturbations
+from cpg_suite import base, cpg, perturbations, portable
 
 CONTROL_TIMESTEP = 0.016  # s: Webots DARwIn-OP basicTimeStep (the one definition).
 DEFAULT_TIME_LIMIT = 16.0  # s: 1000 control steps ("1000 timesteps" of the study).
 _FALL_HEIGHT = 0.22  # m: torso origin height below which the robot has fallen.
-_FALL_TILT_COS = float(np.cos(np.deg2rad(50.0)))  # torso z-axis · world z below this: fallen.
+_FALL_TILT_COS = float(portable.cos(np.deg2rad(50.0)))  # torso z-axis · world z below this: fallen.
 INIT_NOISE = 0.01  # rad: U(−x, x) added to each leg joint of the initial posture.
 _STANCE_FRACTION = 0.05  # of body weight: a foot carrying more is a stance foot.
 _WALK_VIZ_SPEED = 0.2  # m/s shown as full reward colour.

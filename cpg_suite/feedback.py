@@ -41,7 +41,7 @@ import json
 
 import numpy as np
 
-from cpg_suite import cpg
+from cpg_suite import cpg, portable
 
 GAIN_NAMES = (
     "pitch_hip",  # deg/rad
@@ -95,7 +95,7 @@ def sensor_inputs(orientation, gyro, touch) -> np.ndarray:
     zz = 1.0 - 2.0 * (x * x + y * y)
     g = np.asarray(gyro, dtype=np.float64)
     load = np.asarray(touch, dtype=np.float64) / BODY_WEIGHT_N
-    pitch, roll = np.arctan2(zx, zz), np.arctan2(zy, zz)
+    pitch, roll = portable.arctan2(zx, zz), portable.arctan2(zy, zz)
     return np.stack([pitch, roll, g[..., 1], -g[..., 0], load[..., 0], load[..., 1]], axis=-1)
 
 
@@ -159,7 +159,8 @@ class FeedbackCPG(cpg.CPG):
 
     def _advance_phases(self, t: float, h: float) -> None:
         load = self.inputs[:, 4:6]
-        self.delta = self.delta + h * self.gains[:, 10, None] * load * np.sin(self._phases_at(t))
+        sin_phi = portable.sin(self._phases_at(t))
+        self.delta = self.delta + h * self.gains[:, 10, None] * load * sin_phi
 
     def _anatomical_targets(self) -> np.ndarray:
         return self.z + reflex_offsets(self.gains, self.inputs)

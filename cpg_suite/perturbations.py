@@ -20,6 +20,8 @@ import dataclasses
 
 import numpy as np
 
+from cpg_suite import portable
+
 # Nominal values these perturbations scale or replace, and where they come from: the MX-28
 # servo (stall torque 2.5 N·m at 12 V, no-load speed 5.76 rad/s) and the calibrated model
 # (kp 40 N·m/rad), see docs/darwin_op_model.md.
@@ -99,7 +101,8 @@ class Pushes:
             start = int(round((t + random.uniform(0.0, self.jitter)) / control_timestep))
             angle = random.uniform(-np.pi, np.pi)
             force = random.uniform(*self.impulse) / (self.steps * control_timestep)
-            pushes.append((start, self.steps, force * np.array([np.cos(angle), np.sin(angle), 0])))
+            sin_a, cos_a = portable.sincos(angle)
+            pushes.append((start, self.steps, force * np.array([cos_a, sin_a, 0.0])))
         return pushes
 
 
@@ -151,7 +154,7 @@ class Terrain:
         """The heights of the tiles' tops above the plane, m (one draw per tile)."""
         centres = self.centres()
         heights = random.uniform(0.0, self.max_height, len(centres))
-        heights[np.hypot(centres[:, 0], centres[:, 1]) < self.start_pad] = 0.0
+        heights[portable.hypot(centres[:, 0], centres[:, 1]) < self.start_pad] = 0.0
         return heights
 
 

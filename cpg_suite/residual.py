@@ -26,7 +26,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from cpg_suite import cpg, darwin
+from cpg_suite import cpg, darwin, portable
 
 AMPLITUDE_SCALE = 10.0  # degrees of amplitude correction per unit action
 RATE_SCALE = 0.5  # phase rate ω (1 + RATE_SCALE · a), a in [−1, 1]: 0.5 ω .. 1.5 ω
@@ -114,7 +114,8 @@ class ModulatedCPG(cpg.CPG):
     def phase_features(self) -> np.ndarray:
         """(K, 2): cos φ_L, sin φ_L."""
         phi = self.left_phase()
-        return np.stack([np.cos(phi), np.sin(phi)], axis=-1)
+        sin_phi, cos_phi = portable.sincos(phi)
+        return np.stack([cos_phi, sin_phi], axis=-1)
 
     # Hooks of `cpg.CPG.step`, with a time per row.
     def _phases_at(self, t) -> np.ndarray:

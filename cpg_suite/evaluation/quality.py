@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from cpg_suite import portable
+
 MX28_NO_LOAD_SPEED = 5.76  # rad/s at 12 V (ROBOTIS MX-28 e-Manual).
 GRAVITY = 9.81  # m/s²
 MIN_DISTANCE = 0.05  # m: below this, per-metre measures are undefined (NaN).
@@ -113,7 +115,7 @@ def measures(
     weight = mass * GRAVITY
     work = float(np.sum(np.maximum(torque * joint_velocity, 0.0)) * timestep)
     stance = touch > _STANCE_FRACTION * weight
-    speed = np.hypot(sole_velocity[..., 0], sole_velocity[..., 1])
+    speed = portable.hypot(sole_velocity[..., 0], sole_velocity[..., 1])
     slip = float(np.sum(np.where(stance, speed, 0.0)) * timestep)
     per_metre = distance >= MIN_DISTANCE
     motor, external = over_speed(torque, joint_velocity)

@@ -12,7 +12,6 @@ from __future__ import annotations
 import io
 
 import numpy as np
-from scipy import special
 
 import cpg_suite
 from cpg_suite import darwin, portable, residual
@@ -98,10 +97,10 @@ class NumpyPolicy:
         for i, (kernel, bias) in enumerate(self.layers):
             x = portable.pairwise_matmul(x, kernel) + bias  # the same bits on any CPU
             if i < len(self.layers) - 1:
-                x = x * special.expit(x)  # swish, without exp's overflow
+                x = x * portable.expit(x)  # swish, without exp's overflow
         if self.head == "normal":
             return np.clip(x, -1.0, 1.0)
-        return np.tanh(x[..., : x.shape[-1] // 2])
+        return portable.tanh(x[..., : x.shape[-1] // 2])
 
     def __call__(self, observation: dict) -> np.ndarray:
         parts = [np.ravel(observation[k]) for k in darwin.OBSERVATION_KEYS]
