@@ -264,10 +264,22 @@ _ENTRY_JOINTS = _ENTRY_JOINTS.astype(int) + 6 * _ENTRY_LEGS
 _ENTRY_AMPLITUDES, _ENTRY_VALUES = _ENTRY_AMPLITUDES.astype(int), _ENTRY_VALUES.astype(int)
 
 
-def primitive_basis(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray:
-    """∂ż/∂A: the primitives per unit amplitude (Eq. 5.3-5.12).
+# Σₚ Aₚ basisₚ per joint, the terms in the order p = 0..10 (the zero terms dropped: adding
+# them changes no value), padded with a zero term (index 22) to 4 per joint.
+_JOINT_TERMS = np.array(
+    [
+        (list(np.flatnonzero(_ENTRY_JOINTS == joint)) + [2 * len(_BASIS_ENTRIES)] * 4)[:4]
+        for joint in range(12)
+    ]
+)
+_ROLL_JOINTS = np.array([HROLL, AROLL, 6 + HROLL, 6 + AROLL])  # the DMP term's joints
 
-    sin, cos and exp are `cpg_suite.portable`'s, so the basis has the same bits on every
+
+def primitive_values(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray:
+    """The values the primitives are made of (Eq. 5.3-5.12): ω sin φ, ω cos φ and the
+    flexion bump per leg.
+
+    sin, cos and exp are `cpg_suite.portable`'s, so the values have the same bits on every
     CPU.
 
     Args:
@@ -276,9 +288,13 @@ def primitive_basis(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray:
       config: The CPG configuration (flexion form, σ).
 
     Returns:
-      Array (..., 11, 12): the rate of each joint's anatomical variable (degrees/s) per
-      degree of each amplitude.
+      Array (..., 2, 3): per leg, ω sin φ, ω cos φ and the bump (degrees/s per degree).
     """
+    return _values_and_sin(phases, omega, config)[0]
+
+
+def _values_and_sin(phases, omega, config: CPGConfig) -> tuple[np.ndarray, np.ndarray]:
+    """`primitive_values` and sin φ."""
     phases = np.asarray(phases, dtype=np.float64)
     omega = np.asarray(omega, dtype=np.float64)[..., None]  # against the legs' axis
     s2 = config.sigma**2
@@ -289,12 +305,47 @@ def primitive_basis(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray:
         bump = -omega * wrapped / s2 * gauss  # d/dt of exp(-φ̄²/2σ²)
     else:
         bump = omega / s2 * gauss  # As printed (no φ̄ factor).
-    values = np.stack([omega * sin_phi, omega * cos_phi, bump], axis=-1)  # (..., 2, 3)
-    out = np.zeros(phases.shape[:-1] + (N_AMPLITUDES, 12))
+    return np.stack([omega * sin_phi, omega * cos_phi, bump], axis=-1), sin_phi
+
+
+def primitive_basis(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray:
+    """∂ż/∂A: the primitives per unit amplitude (Eq. 5.3-5.12).
+
+    Args:
+      phases: Phases of the two legs, shape (..., 2) (left, right), rad.
+      omega: φ̇, rad/s: a number, or one per row of `phases` (shape (...)).
+      config: The CPG configuration (flexion form, σ).
+
+    Returns:
+      Array (..., 11, 12): the rate of each joint's anatomical variable (degrees/s) per
+      degree of each amplitude.
+    """
+    values = primitive_values(phases, omega, config)
+    out = np.zeros(values.shape[:-2] + (N_AMPLITUDES, 12))
     out[..., _ENTRY_AMPLITUDES, _ENTRY_JOINTS] = (
         values[..., _ENTRY_LEGS, _ENTRY_VALUES] * _ENTRY_SIGNS
     )
     return out
+
+
+def combine(amplitudes: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Σₚ Aₚ basisₚ: the primitives' joint rates for each row of amplitudes.
+
+    The sum runs over p in increasing order, as `Σₚ amplitudes[:, p] * primitive_basis(...)[p]`
+    would, without the basis' zero terms (a fixed order, not a BLAS product, whose last bit
+    depends on the CPU's kernel).
+
+    Args:
+      amplitudes: (K, 11) amplitudes, degrees.
+      values: `primitive_values`, (2, 3) for all rows or (K, 2, 3).
+
+    Returns:
+      (K, 12) rates of the anatomical variables, degrees/s.
+    """
+    basis = values[..., _ENTRY_LEGS, _ENTRY_VALUES] * _ENTRY_SIGNS  # (22,) or (K, 22)
+    terms = amplitudes[:, _ENTRY_AMPLITUDES] * basis
+    terms = np.concatenate([terms, np.zeros((len(terms), 1))], axis=1)[:, _JOINT_TERMS]
+    return ((terms[..., 0] + terms[..., 1]) + terms[..., 2]) + terms[..., 3]
 
 
 class CPG:
@@ -349,19 +400,21 @@ class CPG:
         """The phases the primitives are driven by: (2,) for all vectors (open loop)."""
         return self.phases(t)
 
-    def _rates(self, t: float) -> np.ndarray:
+    def _omega(self):
+        """φ̇ of the primitives: ω (open loop)."""
+        return self.config.omega
+
+    def _ramp(self, t):
+        """The start-up ramp r(t) (Eq. 5.2) at time t."""
         cfg = self.config
-        basis = primitive_basis(self._phases_at(t), cfg.omega, cfg)  # (11, 12) or (K, 11, 12)
-        ramp = smoothstep(t / cfg.ramp_time) if cfg.ramp_time > 0 else 1.0
-        # Σₚ Aₚ basisₚ in a fixed order (not a BLAS product, whose last bit depends on the
-        # CPU's kernel).
-        combined = np.zeros((len(self.amplitudes), basis.shape[-1]))
-        for p in range(N_AMPLITUDES):
-            combined += self.amplitudes[:, p, None] * basis[..., p, :]
-        rates = ramp * combined  # (K, 12)
-        for leg in (0, 1):
-            rates[:, 6 * leg + HROLL] += self.roll_input[:, leg]
-            rates[:, 6 * leg + AROLL] += self.roll_input[:, leg]
+        return smoothstep(t / cfg.ramp_time) if cfg.ramp_time > 0 else 1.0
+
+    def _rates(self, t: float) -> np.ndarray:
+        # sin φ is kept for `_advance_phases`, which the same substep calls next (φ unchanged).
+        values, self._sin_phi = _values_and_sin(self._phases_at(t), self._omega(), self.config)
+        ramp = np.asarray(self._ramp(t))
+        rates = ramp[..., None] * combine(self.amplitudes, values)  # (K, 12)
+        rates[:, _ROLL_JOINTS] += self.roll_input[:, [0, 0, 1, 1]]
         return rates
 
     def step(self, dt: float) -> np.ndarray:

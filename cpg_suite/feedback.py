@@ -158,9 +158,8 @@ class FeedbackCPG(cpg.CPG):
         return self.phases(t)[None, :] + self.delta  # (K, 2)
 
     def _advance_phases(self, t: float, h: float) -> None:
-        load = self.inputs[:, 4:6]
-        sin_phi = portable.sin(self._phases_at(t))
-        self.delta = self.delta + h * self.gains[:, 10, None] * load * sin_phi
+        load = self.inputs[:, 4:6]  # sin φ(t): kept by this substep's `_rates`
+        self.delta = self.delta + h * self.gains[:, 10, None] * load * self._sin_phi
 
     def _anatomical_targets(self) -> np.ndarray:
         return self.z + reflex_offsets(self.gains, self.inputs)

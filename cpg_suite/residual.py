@@ -122,22 +122,13 @@ class ModulatedCPG(cpg.CPG):
         left = self.config.initial_phase + self.config.omega * t + self.delta
         return np.stack([left, left - np.pi], axis=-1)  # (K, 2)
 
-    def _rates(self, t) -> np.ndarray:
-        cfg = self.config
-        omega = cfg.omega * self.rate  # (K,): φ̇ of each row
-        basis = cpg.primitive_basis(self._phases_at(t), omega, cfg)  # (K, 11, 12)
-        if cfg.ramp_time > 0:
-            ramp = cpg.smoothstep(t / cfg.ramp_time)
-        else:
-            ramp = np.ones(self.rows)
-        combined = np.zeros((self.rows, basis.shape[-1]))
-        for p in range(cpg.N_AMPLITUDES):  # the order of `cpg.CPG._rates`
-            combined += self.amplitudes[:, p, None] * basis[..., p, :]
-        rates = ramp[:, None] * combined
-        for leg in (0, 1):
-            rates[:, 6 * leg + cpg.HROLL] += self.roll_input[:, leg]
-            rates[:, 6 * leg + cpg.AROLL] += self.roll_input[:, leg]
-        return rates
+    def _omega(self) -> np.ndarray:
+        return self.config.omega * self.rate  # (K,): φ̇ of each row
+
+    def _ramp(self, t) -> np.ndarray:
+        if self.config.ramp_time > 0:
+            return cpg.smoothstep(t / self.config.ramp_time)
+        return np.ones(self.rows)
 
     def _advance_phases(self, t, h: float) -> None:
         self.delta = self.delta + (self.rate - 1.0) * self.config.omega * h
