@@ -272,7 +272,7 @@ _JOINT_TERMS = np.array(
         for joint in range(12)
     ]
 )
-_ROLL_JOINTS = np.array([HROLL, AROLL, 6 + HROLL, 6 + AROLL])  # the DMP term's joints
+ROLL_JOINTS = np.array([HROLL, AROLL, 6 + HROLL, 6 + AROLL])  # the DMP term's joints
 
 
 def primitive_values(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray:
@@ -337,14 +337,15 @@ def combine(amplitudes: np.ndarray, values: np.ndarray) -> np.ndarray:
 
     Args:
       amplitudes: (K, 11) amplitudes, degrees.
-      values: `primitive_values`, (2, 3) for all rows or (K, 2, 3).
+      values: `primitive_values`, (2, 3) for all rows or (..., K, 2, 3).
 
     Returns:
-      (K, 12) rates of the anatomical variables, degrees/s.
+      (..., K, 12) rates of the anatomical variables, degrees/s.
     """
-    basis = values[..., _ENTRY_LEGS, _ENTRY_VALUES] * _ENTRY_SIGNS  # (22,) or (K, 22)
+    basis = values[..., _ENTRY_LEGS, _ENTRY_VALUES] * _ENTRY_SIGNS  # (..., 22)
     terms = amplitudes[:, _ENTRY_AMPLITUDES] * basis
-    terms = np.concatenate([terms, np.zeros((len(terms), 1))], axis=1)[:, _JOINT_TERMS]
+    zero = np.zeros(terms.shape[:-1] + (1,))
+    terms = np.concatenate([terms, zero], axis=-1)[..., _JOINT_TERMS]  # (..., 12, 4)
     return ((terms[..., 0] + terms[..., 1]) + terms[..., 2]) + terms[..., 3]
 
 
@@ -414,7 +415,7 @@ class CPG:
         values, self._sin_phi = _values_and_sin(self._phases_at(t), self._omega(), self.config)
         ramp = np.asarray(self._ramp(t))
         rates = ramp[..., None] * combine(self.amplitudes, values)  # (K, 12)
-        rates[:, _ROLL_JOINTS] += self.roll_input[:, [0, 0, 1, 1]]
+        rates[:, ROLL_JOINTS] += self.roll_input[:, [0, 0, 1, 1]]
         return rates
 
     def step(self, dt: float) -> np.ndarray:

@@ -21,6 +21,8 @@ phase (cos φ_L, sin φ_L) to the observations as `"cpg_phase"`.
 
 from __future__ import annotations
 
+import math
+
 import gymnasium
 import numpy as np
 from gymnasium.vector import AutoresetMode
@@ -132,6 +134,36 @@ class ModulatedCPG(cpg.CPG):
 
     def _advance_phases(self, t, h: float) -> None:
         self.delta = self.delta + (self.rate - 1.0) * self.config.omega * h
+
+    def step(self, dt: float) -> np.ndarray:
+        """`cpg.CPG.step` with the substeps' rates computed in one batch: a row's phases
+        do not depend on its pattern generators, so its times and phase deviations at every
+        substep are accumulated first (t ← t + h, δ ← δ + (rate − 1) ω h, in the stepper's
+        order), then the rates of all substeps at once, then z substep by substep. The
+        same bits as the stepper (`tests/test_ppo.py`), with one call of the elementary
+        functions per control step instead of one per substep.
+
+        Returns:
+          (K, 12) joint targets, radians.
+        """
+        cfg = self.config
+        n = max(1, int(round(dt / cfg.substep)))
+        h = dt / n
+        decay = math.exp(-cfg.beta * h)
+        gain = (1.0 - decay) / cfg.beta if cfg.beta > 0 else h
+        steps = np.full((n, self.rows), h)
+        times = np.cumsum(np.concatenate([self.time[None], steps]), axis=0)  # (n + 1, K)
+        increment = np.broadcast_to((self.rate - 1.0) * cfg.omega * h, steps.shape)
+        deltas = np.cumsum(np.concatenate([self.delta[None], increment]), axis=0)
+        mid = times[:n] + 0.5 * h  # the substeps' mid-times, as `_rates` is called with
+        left = cfg.initial_phase + cfg.omega * mid + deltas[:n]
+        values = cpg.primitive_values(np.stack([left, left - np.pi], axis=-1), self._omega(), cfg)
+        rates = self._ramp(mid)[..., None] * cpg.combine(self.amplitudes, values)  # (n, K, 12)
+        rates[..., cpg.ROLL_JOINTS] += self.roll_input[:, [0, 0, 1, 1]]
+        for k in range(n):
+            self.z = self._offsets + (self.z - self._offsets) * decay + gain * rates[k]
+        self.time, self.delta = times[n], deltas[n]
+        return cpg.to_joint_angles(self.z)
 
 
 class CPGActions(gymnasium.vector.VectorWrapper):
