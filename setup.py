@@ -71,6 +71,7 @@ setup(
         # run CMA-ES and check the Gymnasium wrappers.
         "test": [
             "pytest>=7,<10",
+            "mpmath>=1.3,<2",  # 60-digit references for cpg_suite.portable's functions
             "ruff>=0.5",
             "pillow>=10,<14",
             "imageio>=2.30,<3",

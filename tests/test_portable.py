@@ -1,16 +1,21 @@
-"""Runs give the same bits on any x86-64 CPU: CPU-independent linear algebra, and short CEM
-and CMA-ES runs and an exported policy's actions under forced OpenBLAS kernels and NumPy
-SIMD levels."""
+"""Runs give the same bits on any x86-64 CPU: CPU-independent linear algebra and elementary
+functions (within an ulp or two of 60-digit references), and the CPG's targets (open and
+closed loop), exported and torch policies' actions and short CEM and CMA-ES runs under
+forced OpenBLAS kernels, NumPy SIMD levels and torch CPU capabilities."""
 
 import json
+import math
 import os
-import subprocess
 import sys
 
+import cpu_variants
+import mpmath
 import numpy as np
 import pytest
 
 from cpg_suite import portable
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def test_matmul_and_sums_match_numpy():
@@ -55,13 +60,121 @@ def test_jacobi_eigendecomposition():
     np.testing.assert_allclose(np.sort(values), np.linalg.eigvalsh(s), rtol=1e-10, atol=1e-10)
 
 
+def _ulps(got: np.ndarray, exact, args) -> float:
+    """The largest error of `got` against `exact` (an mpmath function) in units in the last
+    place of the correctly rounded result."""
+    worst = 0.0
+    for value, *point in zip(got, *args):
+        reference = exact(*(mpmath.mpf(float(p)) for p in point))
+        rounded = float(reference)
+        unit = math.ulp(rounded) if rounded else math.ulp(0.0)
+        worst = max(worst, float(abs(mpmath.mpf(float(value)) - reference)) / unit)
+    return worst
+
+
+_RNG = np.random.default_rng(7)
+_ANGLES = np.concatenate(
+    [_RNG.uniform(-8, 8, 1500), _RNG.uniform(-3000, 3000, 1500), [0.0, math.pi, 355.0, 103993.0]]
+)
+_EXPONENTS = np.concatenate(
+    [_RNG.uniform(-20, 20, 1500), _RNG.uniform(-745, 709.7, 500), _RNG.uniform(-1e-6, 1e-6, 200)]
+)
+
+
+@pytest.mark.parametrize(
+    "name, exact, args, bound",
+    [
+        ("sin", mpmath.sin, (_ANGLES,), 1.0),
+        ("cos", mpmath.cos, (_ANGLES,), 1.0),
+        ("exp", mpmath.exp, (_EXPONENTS,), 1.0),
+        ("expm1", mpmath.expm1, (np.concatenate([_EXPONENTS[:1500] / 10, _EXPONENTS]),), 1.0),
+        ("tanh", mpmath.tanh, (_EXPONENTS[:1700] / 4,), 2.0),
+        ("expit", lambda x: 1 / (1 + mpmath.exp(-x)), (_EXPONENTS[:1700] * 2,), 2.0),
+        ("arctan2", mpmath.atan2, (_RNG.standard_normal(1500), _RNG.standard_normal(1500)), 2.0),
+        ("hypot", mpmath.hypot, (_RNG.standard_normal(1500), _RNG.standard_normal(1500)), 1.5),
+    ],
+)
+def test_elementary_functions_are_within_their_bound_of_60_digit_references(
+    name, exact, args, bound
+):
+    mpmath.mp.dps = 60
+    got = getattr(portable, name)(*args)
+    assert got.shape == args[0].shape
+    assert _ulps(got, exact, args) < bound
+
+
+def test_elementary_functions_special_values():
+    assert list(portable.exp([0.0, np.inf, -np.inf, 710.0, -746.0])) == [1, np.inf, 0, np.inf, 0]
+    assert np.isnan(portable.exp(np.nan)) and np.isnan(portable.tanh(np.nan))
+    assert list(portable.tanh([0.0, 30.0, -30.0])) == [0.0, 1.0, -1.0]
+    assert list(portable.expm1([0.0, -50.0])) == [0.0, -1.0]
+    assert list(portable.expit([-800.0, 0.0, 800.0])) == [0.0, 0.5, 1.0]
+    sin, cos = portable.sincos(np.array([0.0, np.pi / 2, np.pi]))
+    assert sin[0] == 0.0 and cos[0] == 1.0 and sin[1] == 1.0 and abs(cos[2] + 1.0) < 1e-16
+    assert portable.arctan2(0.0, -1.0) == np.pi and portable.arctan2(-1.0, 0.0) == -np.pi / 2
+    assert portable.sincos(5.0)[0].shape == ()  # a number gives 0-d arrays
+    for bad in (np.inf, np.nan, 2.0**19 * np.pi * 1.001):
+        with pytest.raises(ValueError, match="finite angles"):
+            portable.sin([0.0, bad])
+    with pytest.raises(ValueError, match="finite coordinates"):
+        portable.arctan2([1.0], [np.inf])
+
+
 _SHORT_RUNS = r"""
-import hashlib, json, sys
+import hashlib, json, os, sys
+import numpy as np
 from baselines import cem, cmaes
-from cpg_suite.harness import runs
-from cpg_suite import cpg, darwin
-targets = cpg.trajectories(cpg.PRESETS["hand_tuned"], 1000, darwin.CONTROL_TIMESTEP)
-out = {"cpg_sha256": hashlib.sha256(targets.tobytes()).hexdigest()}
+from cpg_suite.harness import exported, runs
+from cpg_suite import cpg, darwin, feedback, portable, residual
+
+def digest(arrays):
+    return hashlib.sha256(b"".join(np.asarray(a).tobytes() for a in arrays)).hexdigest()
+
+out = {}
+rng = np.random.default_rng(0)
+# The CPG: open loop, modulated (the cpg action space, with its phase features), with
+# feedback (closed loop, sensor inputs from orientations), and the DMP kernels.
+dt = darwin.CONTROL_TIMESTEP
+out["open_loop"] = digest([cpg.trajectories(cpg.PRESETS["hand_tuned"], 1000, dt)])
+modulated, steps = residual.ModulatedCPG(3), []
+for _ in range(200):
+    modulated.modulate(rng.uniform(-1, 1, (3, residual.N_ACTIONS)))
+    steps += [modulated.step(dt), modulated.phase_features()]
+out["modulated"] = digest(steps)
+params = np.concatenate([np.tile(cpg.PRESETS["hand_tuned"], (3, 1)),
+                         rng.uniform(-0.5, 0.5, (3, feedback.N_GAINS))], axis=1)
+closed, steps = feedback.FeedbackCPG(params), []
+for _ in range(200):
+    quat = rng.standard_normal((3, 4))
+    quat /= np.sqrt((quat * quat).sum(axis=1, keepdims=True))
+    inputs = feedback.sensor_inputs(quat, rng.standard_normal((3, 3)), rng.uniform(0, 30, (3, 2)))
+    steps += [inputs, closed.step(dt, inputs)]
+out["closed_loop"] = digest(steps)
+out["dmp"] = digest([cpg.dmp_kernels(rng.uniform(-50, 50, 500))])
+x = rng.uniform(-30, 30, 2000)
+out["functions"] = digest([*portable.sincos(x * 50), portable.exp(x), portable.expm1(x / 10),
+                           portable.tanh(x / 5), portable.expit(x), portable.arctan2(x, x[::-1]),
+                           portable.hypot(x, x[::-1])])
+# Policies exported to NumPy (PPO on MJX's format), both heads and action spaces.
+sizes = (40, 256, 256, 24)
+for head in ("normal", "tanh_normal"):
+    arrays = {"mean": rng.standard_normal(40), "std": rng.random(40) + 0.5, "head": head}
+    for i, (n, m) in enumerate(zip(sizes[:-1], sizes[1:])):
+        arrays[f"kernel_{i}"] = rng.standard_normal((n, m)) / np.sqrt(n)
+        arrays[f"bias_{i}"] = 0.1 * rng.standard_normal(m)
+    policy = exported.NumpyPolicy(arrays, "joints")
+    actions = [policy.act(rng.standard_normal((1, 40))) for _ in range(64)]
+    out[f"numpy_policy_{head}"] = digest(actions)
+# The shipped torch policies (Stable-Baselines3 PPO), on the observations of a real trial.
+from cpg_suite.protocol import verify
+from cpg_suite.harness import sb3
+with sb3.single_threaded():
+    for name in ("joints_seed0", "cpg_seed0"):
+        policy = verify.shipped_policy(os.path.join(sys.argv[2], name))
+        flat = rng.standard_normal((64, policy.model.observation_space.shape[0]))
+        out[f"torch_{name}"] = digest([sb3.predict(policy.model, policy.normalizer, flat[i:i + 1])
+                                       for i in range(64)])
+# Short CEM and CMA-ES runs.
 base = dict(population=6, rounds=3, trial_steps=150, fall_penalty=10.0)
 base.update(validation_seeds=2, test_seeds=2)
 for name, run, settings in (
@@ -73,69 +186,22 @@ for name, run, settings in (
     summary.pop("wall_s")
     files = {f: runs.read_json(f"{run_dir}/{f}") for f in ("best_params.json", "mean_params.json")}
     out[name] = {"summary": summary, **files}
-# A policy exported to NumPy (PPO on MJX's format), its actions on 64 observations.
-from cpg_suite.harness import exported
-import numpy as np
-rng = np.random.default_rng(0)
-sizes = (40, 256, 256, 12)
-arrays = {"mean": rng.standard_normal(40), "std": rng.random(40) + 0.5, "head": "normal"}
-for i, (n, m) in enumerate(zip(sizes[:-1], sizes[1:])):
-    arrays[f"kernel_{i}"] = rng.standard_normal((n, m)) / np.sqrt(n)
-    arrays[f"bias_{i}"] = 0.1 * rng.standard_normal(m)
-policy = exported.NumpyPolicy(arrays, "joints")
-actions = np.concatenate([policy.act(rng.standard_normal((1, 40))) for _ in range(64)])
-out["numpy_policy_sha256"] = hashlib.sha256(actions.tobytes()).hexdigest()
 print(json.dumps(out))
 """
 
 
-def _cpu_flags() -> set:
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                if line.startswith("flags"):
-                    return set(line.split(":", 1)[1].split())
-    except OSError:
-        pass
-    return set()
-
-
-def _variants() -> dict:
-    from numpy._core._multiarray_umath import __cpu_dispatch__
-
-    avx512 = [f for f in __cpu_dispatch__ if "AVX512" in f or f == "X86_V4"]
-    variants = {
-        "default": {},
-        "Haswell": {"OPENBLAS_CORETYPE": "Haswell"},
-        "Sandybridge": {"OPENBLAS_CORETYPE": "Sandybridge"},
-        "no AVX-512 in NumPy": {"NPY_DISABLE_CPU_FEATURES": " ".join(avx512)},
-    }
-    if "X86_V3" in __cpu_dispatch__:  # NumPy ≥ 2.4 names its AVX2/FMA level X86_V3.
-        variants["no AVX2 in NumPy"] = {"NPY_DISABLE_CPU_FEATURES": " ".join(["X86_V3"] + avx512)}
-    if "avx512f" in _cpu_flags():  # A SkylakeX kernel needs AVX-512 to run at all.
-        variants["SkylakeX"] = {"OPENBLAS_CORETYPE": "SkylakeX"}
-    return variants
-
-
-@pytest.mark.skipif(sys.platform != "linux", reason="forced OpenBLAS kernels: x86-64 Linux")
-def test_runs_are_identical_under_every_blas_kernel_and_simd_level(tmp_path):
+@pytest.mark.skipif(sys.platform != "linux", reason="forced CPU variants: x86-64 Linux")
+def test_runs_are_identical_under_every_cpu_variant(tmp_path):
+    policies = os.path.join(ROOT, "results", "protocol", "runs", "ppo", "darwin_walk")
+    every = cpu_variants.variants(("Haswell", "Sandybridge", "SkylakeX"))
     results = {}
-    for name, extra in _variants().items():
-        env = {
-            k: v
-            for k, v in os.environ.items()
-            if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")
-        }
+    for name, variant in every.items():  # one at a time: the runs use both cores
         out_dir = tmp_path / name.replace(" ", "_")
-        proc = subprocess.run(
-            [sys.executable, "-c", _SHORT_RUNS, str(out_dir)],
-            capture_output=True,
-            text=True,
-            env={**env, **extra},
-            timeout=600,
-        )
-        assert proc.returncode == 0, f"{name}: {proc.stderr[-2000:]}"
-        results[name] = json.loads(proc.stdout.strip().splitlines()[-1])
-    reference = results.pop("default")
+        child = cpu_variants.start(variant, ["-c", _SHORT_RUNS, str(out_dir), policies])
+        stdout, stderr = child.communicate(timeout=600)
+        assert child.returncode == 0, f"{name}: {stderr[-2000:]}"
+        results[name] = json.loads(stdout.strip().splitlines()[-1])
+    reference = results.pop("native")
     for name, result in results.items():
-        assert result == reference, f"{name} differs from the default kernel"
+        differ = sorted(k for k in reference if result[k] != reference[k])
+        assert not differ, f"{name}: {', '.join(differ)} differ from the native run"

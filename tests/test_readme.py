@@ -18,9 +18,10 @@ def test_python_examples_run():
         exec(compile(code, README, "exec"), {"__name__": "__readme__"})
 
 
-def test_quick_start_has_exactly_two_commands():
+def test_quick_start_has_the_main_job_and_both_test_tiers():
     quick = _blocks("bash")[0]
     commands = [line for line in quick.splitlines() if line and not line.startswith("#")]
-    assert len(commands) == 2
+    assert len(commands) == 3
     assert commands[0].startswith("pip install . && python -m baselines.")
-    assert commands[1].startswith('pip install ".[test]" && pytest')
+    assert commands[1] == 'pip install ".[test]" && pytest -q -m "not slow"'
+    assert commands[2] == "pytest -q -m slow"

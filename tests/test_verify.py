@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 
+import cpu_variants
 import pytest
 
 from baselines import cem
@@ -120,11 +121,36 @@ def test_a_card_extends_an_older_one_only_by_new_keys():
     assert not verify.extends(changed, stored)
 
 
-def test_the_reference_artifacts_reproduce_quickly():
-    """The shipped reference results, re-scored on a sample (`verify --quick`)."""
+def test_a_shipped_reference_run_reproduces_quickly():
+    """One shipped CEM run, re-scored on its first test seeds (the slow tier does them all)."""
     artifacts = os.path.join(ROOT, verify.ARTIFACTS)
-    assert verify.shipped_runs(artifacts), "results/protocol/runs ships no runs"
-    assert verify.verify(artifacts, quick=True, log=lambda line: None) == 0
+    shipped = verify.shipped_runs(os.path.join(artifacts, "cem"))
+    assert shipped, "results/protocol/runs ships no CEM run"
+    assert verify.verify_run(shipped[0], quick=True) == []
+
+
+@pytest.mark.slow
+def test_the_reference_artifacts_reproduce_under_every_cpu_variant():
+    """`verify --quick` natively and as on other CPUs (NumPy without AVX-512, without AVX2
+    too, torch at its default and AVX2 capability, OpenBLAS's Haswell kernels), two at a
+    time on one evaluator thread each."""
+    artifacts = os.path.join(ROOT, verify.ARTIFACTS)
+    command = ["-m", "cpg_suite.protocol.verify", "--quick", "--threads=1"]
+    pending, failures = list(cpu_variants.variants().items()), []
+    while pending:
+        batch, pending = pending[:2], pending[2:]
+        children = [
+            (name, cpu_variants.start(variant, [*command, f"--artifacts={artifacts}"]))
+            for name, variant in batch
+        ]
+        for name, child in children:
+            stdout, stderr = child.communicate(timeout=1800)
+            lines = stdout.strip().splitlines()
+            if child.returncode != 0 or not lines or "DIFF" in stdout:
+                failures.append(f"{name}: {[x for x in lines if 'DIFF' in x] or stderr[-500:]}")
+    runs_checked = len(verify._quick_sample(verify.shipped_runs(artifacts)))
+    assert runs_checked >= 8
+    assert not failures, "\n".join(failures)
 
 
 def test_cli_without_artifacts_is_one_line(tmp_path):
