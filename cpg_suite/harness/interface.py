@@ -17,6 +17,11 @@ from cpg_suite import cli, protocol
 TASKS = protocol.TIERS  # Optimizers may train on any tier.
 
 
+# The largest fall or lateral penalty, m (a choice: six orders of magnitude above the longest
+# walk of a trial, under 20 m, and small enough that no round's sum of costs overflows).
+MAX_PENALTY = 1e6
+
+
 @dataclasses.dataclass(frozen=True)
 class OptimizerSettings:
     """Settings every gait optimizer shares; all of them decide the result.
@@ -64,10 +69,8 @@ class OptimizerSettings:
         require(self.seed >= 0, f"--seed must be ≥ 0, got {self.seed}")
         require(self.trial_steps >= 1, f"--trial_steps must be ≥ 1, got {self.trial_steps}")
         require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
-        require(self.fall_penalty >= 0, f"--fall_penalty must be ≥ 0, got {self.fall_penalty}")
-        require(
-            self.lateral_penalty >= 0, f"--lateral_penalty must be ≥ 0, got {self.lateral_penalty}"
-        )
+        cli.require_number("fall_penalty", self.fall_penalty, 0, MAX_PENALTY)
+        cli.require_number("lateral_penalty", self.lateral_penalty, 0, MAX_PENALTY)
         require(
             self.validation_seeds >= 1,
             f"--validation_seeds must be ≥ 1, got {self.validation_seeds}",
