@@ -234,6 +234,10 @@ def main(argv):
     options = cli.settings_from_flags(runs.RunOptions)
     values = flags.FLAGS
     cli.check(values.seeds >= 1, f"--seeds must be ≥ 1, got {values.seeds}")
+    cli.check(
+        values.grid is not None or values.settings is None,
+        f"--settings={values.settings} needs --grid (it picks settings of a grid)",
+    )
     if values.grid is None:
         jobs = [(settings, options)]
     else:

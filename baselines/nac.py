@@ -310,7 +310,7 @@ class NACSettings:
         require(self.task in TASKS, f"unknown --task {self.task!r}; valid: {', '.join(TASKS)}")
         require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
         # Upper ends marked "a choice" bound only what would overflow or mean nothing.
-        cli.require_number("alpha", self.alpha, 0, 1e6)  # a choice (default 100)
+        cli.require_number("alpha", self.alpha, 0, 1e6, low_open=True)  # a choice (default 100)
         cli.require_number("beta", self.beta, 0, 1)
         cli.require_number("lam", self.lam, 0, 1)
         cli.require_number("gamma", self.gamma, 0, 1, high_open=True)
@@ -320,6 +320,7 @@ class NACSettings:
         cli.require_number("accuracy_angle", self.accuracy_angle, 0, 180, low_open=True)
         require(self.check_every >= 1, f"--check_every must be ≥ 1, got {self.check_every}")
         require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
+        require(self.seed >= 0, f"--seed must be ≥ 0, got {self.seed}")
         cli.require_number("fall_penalty", self.fall_penalty, 0, 1e6)  # a choice
 
     def evaluation_seeds(self) -> range:

@@ -141,7 +141,8 @@ class PPOSettings:
         number("gae_lambda", self.gae_lambda, 0, 1)
         number("clip_range", self.clip_range, 0, 10, low_open=True)  # a choice
         number("ent_coef", self.ent_coef, 0, 1e3)  # a choice
-        number("vf_coef", self.vf_coef, 0, 1e3)  # a choice
+        # > 0: the value network is separate, and with no value loss it never learns.
+        number("vf_coef", self.vf_coef, 0, 1e3, low_open=True)  # upper end: a choice
         number("max_grad_norm", self.max_grad_norm, 0, 1e6, low_open=True)  # a choice
         number("log_std_init", self.log_std_init, -20, 5)  # a choice: σ from 2e-9 to 148
         try:

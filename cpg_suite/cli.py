@@ -330,6 +330,23 @@ def require_number(
         raise ValueError(message)
 
 
+def require_integer(flag: str, value, low: int | None = None, high: int | None = None) -> None:
+    """Checks that an integer setting is an integer in [low, high] (for settings validation).
+
+    Args:
+      flag: The setting's flag name, without dashes.
+      value: The value to check (a float such as 2.0 is not an integer setting).
+      low, high: The range's ends, included (None: unbounded on that side).
+
+    Raises:
+      ValueError: "--FLAG must be an integer in [low, high], got VALUE".
+    """
+    inside = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    inside = inside and (low is None or value >= low) and (high is None or value <= high)
+    if not inside:
+        raise ValueError(f"--{flag} must be an integer {valid_range(low, high)}, got {value!r}")
+
+
 def require_scoring(validation_seeds: int, test_seeds: int, test_tiers) -> tuple[str, ...]:
     """Checks a policy learner's validation seeds, test seeds and score-card tiers.
 
@@ -366,9 +383,14 @@ def require_scoring(validation_seeds: int, test_seeds: int, test_tiers) -> tuple
 BACKENDS = ("local", "ray")  # where runs and trials execute (`cpg_suite.evaluation.ray_backend`)
 
 
-def require_backend(backend: str) -> None:
-    """Raises `ValueError` unless `backend` is one of `BACKENDS`."""
+def require_backend(backend: str, ray_address: str | None = None) -> None:
+    """Raises `ValueError` unless `backend` is one of `BACKENDS` and a Ray address comes
+    only with the Ray backend (the local one would ignore it)."""
     require(backend in BACKENDS, f"--backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
+    require(
+        ray_address is None or backend == "ray",
+        f"--ray_address={ray_address} needs --backend=ray (got --backend={backend})",
+    )
 
 
 def define_backend_flags() -> None:

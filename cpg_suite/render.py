@@ -64,7 +64,14 @@ class RenderSettings:
                 f"unknown --task {self.task!r}; explore renders CPG gaits on: "
                 f"{', '.join(RENDER_TASKS)}"
             )
-        for name, low in (("steps", 1), ("width", 16), ("height", 16), ("every", 1), ("frames", 1)):
+        for name, low in (
+            ("seed", 0),
+            ("steps", 1),
+            ("width", 16),
+            ("height", 16),
+            ("every", 1),
+            ("frames", 1),
+        ):
             if getattr(self, name) < low:
                 raise ValueError(f"--{name} must be ≥ {low}, got {getattr(self, name)}")
         duration = self.steps * darwin.CONTROL_TIMESTEP  # s: a snapshot must fall in the trial
