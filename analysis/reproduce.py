@@ -106,7 +106,7 @@ class ReproduceSettings:
         )
         cli.require(bool(self.out), "--out is required: the folder the reproduction goes into")
         cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
-        cli.require_backend(self.backend)
+        cli.require_backend(self.backend, self.ray_address)
 
     @property
     def render_gaits(self) -> bool:

@@ -136,6 +136,10 @@ class CEM:
         self.rng.bit_generator.state = state["rng"]
 
 
+# The largest --noise, deg² (a choice: σ = 100°, wider than every leg joint's range).
+MAX_NOISE = 1e4
+
+
 @dataclasses.dataclass(frozen=True)
 class CEMSettings(interface.OptimizerSettings):
     """The settings of a CEM run (the shared ones plus elite and noise).
@@ -154,7 +158,7 @@ class CEMSettings(interface.OptimizerSettings):
             1 <= self.elite <= self.population,
             f"--elite must lie in [1, --population={self.population}], got {self.elite}",
         )
-        cli.require(self.noise >= 0, f"--noise must be ≥ 0, got {self.noise}")
+        cli.require_number("noise", self.noise, 0, MAX_NOISE)
 
 
 def default_run_name(settings: CEMSettings) -> str:
@@ -230,6 +234,10 @@ def main(argv):
     options = cli.settings_from_flags(runs.RunOptions)
     values = flags.FLAGS
     cli.check(values.seeds >= 1, f"--seeds must be ≥ 1, got {values.seeds}")
+    cli.check(
+        values.grid is not None or values.settings is None,
+        f"--settings={values.settings} needs --grid (it picks settings of a grid)",
+    )
     if values.grid is None:
         jobs = [(settings, options)]
     else:

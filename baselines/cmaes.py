@@ -164,6 +164,10 @@ class CMAES:
         self._decompose()
 
 
+# The largest --sigma0, degrees (a choice: wider than every leg joint's range).
+MAX_SIGMA0 = 100.0
+
+
 @dataclasses.dataclass(frozen=True)
 class CMAESSettings(interface.OptimizerSettings):
     """The settings of a CMA-ES run (the shared ones plus the initial step size).
@@ -176,7 +180,7 @@ class CMAESSettings(interface.OptimizerSettings):
 
     def __post_init__(self):
         super().__post_init__()
-        cli.require(self.sigma0 > 0, f"--sigma0 must be > 0, got {self.sigma0}")
+        cli.require_number("sigma0", self.sigma0, 0, MAX_SIGMA0, low_open=True)
 
 
 def default_run_name(settings: CMAESSettings) -> str:

@@ -309,21 +309,19 @@ class NACSettings:
         require = cli.require
         require(self.task in TASKS, f"unknown --task {self.task!r}; valid: {', '.join(TASKS)}")
         require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
-        require(self.alpha >= 0, f"--alpha must be ≥ 0, got {self.alpha}")
-        for name in ("beta", "lam"):
-            value = getattr(self, name)
-            require(0.0 <= value <= 1.0, f"--{name} must lie in [0, 1], got {value}")
-        require(0.0 <= self.gamma < 1.0, f"--gamma must lie in [0, 1), got {self.gamma}")
-        require(self.sigma > 0, f"--sigma must be > 0, got {self.sigma}")
-        require(self.ridge >= 0, f"--ridge must be ≥ 0, got {self.ridge}")
-        require(self.eps_a > 0, f"--eps_a must be > 0, got {self.eps_a}")
-        require(
-            0 < self.accuracy_angle <= 180,
-            f"--accuracy_angle must lie in (0, 180], got {self.accuracy_angle}",
-        )
+        # Upper ends marked "a choice" bound only what would overflow or mean nothing.
+        cli.require_number("alpha", self.alpha, 0, 1e6, low_open=True)  # a choice (default 100)
+        cli.require_number("beta", self.beta, 0, 1)
+        cli.require_number("lam", self.lam, 0, 1)
+        cli.require_number("gamma", self.gamma, 0, 1, high_open=True)
+        cli.require_number("sigma", self.sigma, 0, 1e4, low_open=True)  # a choice, degrees/s
+        cli.require_number("ridge", self.ridge, 0, 1e6)  # a choice
+        cli.require_number("eps_a", self.eps_a, 0, 1e6, low_open=True)  # a choice
+        cli.require_number("accuracy_angle", self.accuracy_angle, 0, 180, low_open=True)
         require(self.check_every >= 1, f"--check_every must be ≥ 1, got {self.check_every}")
         require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
-        require(self.fall_penalty >= 0, f"--fall_penalty must be ≥ 0, got {self.fall_penalty}")
+        require(self.seed >= 0, f"--seed must be ≥ 0, got {self.seed}")
+        cli.require_number("fall_penalty", self.fall_penalty, 0, 1e6)  # a choice
 
     def evaluation_seeds(self) -> range:
         """The evaluation initial states: 100, 101, ..., 100 + eval_seeds − 1."""

@@ -37,7 +37,6 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
     cli.without_rendering()
 
 import dataclasses
-import math
 import os
 from collections.abc import Callable
 
@@ -133,23 +132,19 @@ class PPOSettings:
         )
         tiers = cli.require_scoring(self.validation_seeds, self.test_seeds, self.test_tiers)
         object.__setattr__(self, "test_tiers", tiers)
-        require(
-            self.amplitude_scale >= 0, f"--amplitude_scale must be ≥ 0, got {self.amplitude_scale}"
-        )
-        require(0 <= self.rate_scale < 1, f"--rate_scale must lie in [0, 1), got {self.rate_scale}")
-        require(self.learning_rate > 0, f"--learning_rate must be > 0, got {self.learning_rate}")
-        require(0 < self.gamma <= 1, f"--gamma must lie in (0, 1], got {self.gamma}")
-        require(
-            0 <= self.gae_lambda <= 1, f"--gae_lambda must lie in [0, 1], got {self.gae_lambda}"
-        )
-        require(self.clip_range > 0, f"--clip_range must be > 0, got {self.clip_range}")
-        require(self.ent_coef >= 0, f"--ent_coef must be ≥ 0, got {self.ent_coef}")
-        require(self.vf_coef >= 0, f"--vf_coef must be ≥ 0, got {self.vf_coef}")
-        require(self.max_grad_norm > 0, f"--max_grad_norm must be > 0, got {self.max_grad_norm}")
-        require(
-            math.isfinite(self.log_std_init),
-            f"--log_std_init must be finite, got {self.log_std_init}",
-        )
+        number = cli.require_number
+        number("amplitude_scale", self.amplitude_scale, 0, residual.MAX_AMPLITUDE_SCALE)
+        number("rate_scale", self.rate_scale, 0, 1, high_open=True)
+        # Upper ends marked "a choice" bound only values that mean nothing or overflow.
+        number("learning_rate", self.learning_rate, 0, 1, low_open=True)  # a choice
+        number("gamma", self.gamma, 0, 1, low_open=True)
+        number("gae_lambda", self.gae_lambda, 0, 1)
+        number("clip_range", self.clip_range, 0, 10, low_open=True)  # a choice
+        number("ent_coef", self.ent_coef, 0, 1e3)  # a choice
+        # > 0: the value network is separate, and with no value loss it never learns.
+        number("vf_coef", self.vf_coef, 0, 1e3, low_open=True)  # upper end: a choice
+        number("max_grad_norm", self.max_grad_norm, 0, 1e6, low_open=True)  # a choice
+        number("log_std_init", self.log_std_init, -20, 5)  # a choice: σ from 2e-9 to 148
         try:
             arch = tuple(int(v) for v in self.net_arch)
         except (TypeError, ValueError):

@@ -177,23 +177,17 @@ class PPOMJXSettings:
             self.policy_head in HEADS,
             f"--policy_head must be one of {', '.join(HEADS)}, got {self.policy_head!r}",
         )
-        for name in (
-            "learning_rate",
-            "clipping_epsilon",
-            "reward_scaling",
-            "max_grad_norm",
-            "init_noise_std",
-            "mean_init_scale",
-        ):
-            value = getattr(self, name)
-            require(value > 0, f"--{name} must be > 0, got {value}")
-        require(self.entropy_cost >= 0, f"--entropy_cost must be ≥ 0, got {self.entropy_cost}")
-        require(
-            0 < self.discounting <= 1, f"--discounting must lie in (0, 1], got {self.discounting}"
-        )
-        require(
-            0 <= self.gae_lambda <= 1, f"--gae_lambda must lie in [0, 1], got {self.gae_lambda}"
-        )
+        # Upper ends marked "a choice" bound only values that mean nothing or overflow.
+        number = cli.require_number
+        number("learning_rate", self.learning_rate, 0, 1, low_open=True)  # a choice
+        number("clipping_epsilon", self.clipping_epsilon, 0, 10, low_open=True)  # a choice
+        number("reward_scaling", self.reward_scaling, 0, 1e6, low_open=True)  # a choice
+        number("max_grad_norm", self.max_grad_norm, 0, 1e6, low_open=True)  # a choice
+        number("init_noise_std", self.init_noise_std, 0, 100, low_open=True)  # a choice
+        number("mean_init_scale", self.mean_init_scale, 0, 100, low_open=True)  # a choice
+        number("entropy_cost", self.entropy_cost, 0, 1e3)  # a choice
+        number("discounting", self.discounting, 0, 1, low_open=True)
+        number("gae_lambda", self.gae_lambda, 0, 1)
         for name in ("policy_layers", "value_layers"):
             object.__setattr__(self, name, _layers(getattr(self, name), name))
         try:

@@ -60,6 +60,7 @@ class AgreementSettings:
     contacts: str = "model"
 
     def __post_init__(self):
+        parse_params(self.params)  # a preset or a readable file of amplitudes
         cli.parse_seeds(self.seeds)
         cli.require(
             self.contacts in walk.CONTACTS,

@@ -43,6 +43,7 @@ class SolverStatsSettings:
     steps: int = 1000
 
     def __post_init__(self):
+        parse_params(self.params)  # a preset or a readable file of amplitudes
         cli.parse_seeds(self.seeds)
         cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
 

@@ -25,7 +25,12 @@ from __future__ import annotations
 import collections
 import functools
 import importlib
+import inspect
+import math
+import numbers
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 if TYPE_CHECKING:
     from dm_control.rl import control
@@ -126,6 +131,39 @@ def split_task_id(task_id: str) -> tuple[str, str]:
     return domain, task
 
 
+def _checked_task_kwargs(factory, task_id: str, task_kwargs: dict | None) -> dict:
+    """`task_kwargs` as a dict, after the checks every task shares: known names, a seed
+    (`random`: None, an integer ≥ 0 or a `numpy.random.RandomState`) and a time limit
+    (`time_limit`: > 0 seconds, or inf for none, as in dm_control). The factories check
+    their own physical settings.
+
+    Raises:
+      ValueError: Naming the keyword and what is valid.
+    """
+    task_kwargs = dict(task_kwargs or {})
+    known = [n for n in inspect.signature(factory).parameters if n != "environment_kwargs"]
+    unknown = sorted(set(task_kwargs) - set(known))
+    if unknown:
+        raise ValueError(f"unknown task_kwargs {unknown} for {task_id}; valid: {', '.join(known)}")
+    random = task_kwargs.get("random")
+    if not (
+        random is None
+        or isinstance(random, np.random.RandomState)
+        or (isinstance(random, numbers.Integral) and not isinstance(random, bool) and random >= 0)
+    ):
+        raise ValueError(
+            f"task_kwargs random must be None, an integer ≥ 0 or a RandomState, got {random!r}"
+        )
+    if "time_limit" in task_kwargs:
+        limit = task_kwargs["time_limit"]
+        if not (
+            isinstance(limit, numbers.Real)
+            and (limit == float("inf") or (math.isfinite(limit) and limit > 0))
+        ):
+            raise ValueError(f"task_kwargs time_limit must be > 0 s or inf, got {limit!r}")
+    return task_kwargs
+
+
 def load(
     domain_name: str,
     task_name: str | None = None,
@@ -148,7 +186,8 @@ def load(
       A `dm_control.rl.control.Environment` (a `dm_env.Environment`).
 
     Raises:
-      ValueError: If the task does not exist; the message lists the valid task ids.
+      ValueError: If the task does not exist (the message lists the valid task ids), or a
+        task keyword is unknown or out of its range (the message names it).
     """
     if task_name is None:
         domain_name, task_name = split_task_id(domain_name)
@@ -157,9 +196,10 @@ def load(
             f"unknown task {domain_name!r}/{task_name!r}; valid tasks: "
             f"{', '.join(_task_lists()['TASK_IDS'])}"
         )
-    task_kwargs = dict(task_kwargs or {})
+    factory = _domains()[domain_name].SUITE[task_name]
+    task_kwargs = _checked_task_kwargs(factory, f"{domain_name}_{task_name}", task_kwargs)
     if environment_kwargs is not None:
         task_kwargs["environment_kwargs"] = environment_kwargs
-    env = _domains()[domain_name].SUITE[task_name](**task_kwargs)
+    env = factory(**task_kwargs)
     env.task.visualize_reward = visualize_reward
     return env

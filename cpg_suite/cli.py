@@ -19,6 +19,8 @@ the process that calls them.
 from __future__ import annotations
 
 import dataclasses
+import math
+import numbers
 import os
 import subprocess
 import sys
@@ -263,6 +265,88 @@ def require(condition: bool, message: str) -> None:
         raise ValueError(message)
 
 
+def _bound(value: float) -> str:
+    return (
+        f"{value:g}" if abs(value) < 1e5 else f"{value:.0e}".replace("e+0", "e").replace("e+", "e")
+    )
+
+
+def valid_range(
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> str:
+    """The words for a range of finite numbers: "in [0, 1)", "> 0", "≤ 5", "finite"."""
+    if low is not None and high is not None:
+        return (
+            f"in {'(' if low_open else '['}{_bound(low)}, {_bound(high)}{')' if high_open else ']'}"
+        )
+    if low is not None:
+        return f"{'>' if low_open else '≥'} {_bound(low)}"
+    if high is not None:
+        return f"{'<' if high_open else '≤'} {_bound(high)}"
+    return "finite"
+
+
+def require_number(
+    flag: str,
+    value,
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    low_open: bool = False,
+    high_open: bool = False,
+    prefix: str = "--",
+) -> None:
+    """Checks that a numeric setting is a finite number in its range (for settings validation).
+
+    Every float setting of the typed settings objects goes through this check, so NaN,
+    infinities and out-of-range values get the same one-line message naming the flag and
+    what is valid, e.g. "--noise must be a finite number ≥ 0, got nan".
+
+    Args:
+      flag: The setting's flag name, without dashes.
+      value: The value to check.
+      low, high: The range's ends (None: unbounded on that side).
+      low_open, high_open: Whether an end itself is excluded.
+      prefix: Put before the name in the message ("" for a setting that is not a flag).
+
+    Raises:
+      ValueError: If `value` is not a real number, not finite, or outside the range.
+    """
+    words = valid_range(low, high, low_open=low_open, high_open=high_open)
+    message = f"{prefix}{flag} must be a finite number {words}, got {value!r}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(message)
+    x = float(value)
+    inside = math.isfinite(x)
+    if inside and low is not None:
+        inside = x > low if low_open else x >= low
+    if inside and high is not None:
+        inside = x < high if high_open else x <= high
+    if not inside:
+        raise ValueError(message)
+
+
+def require_integer(flag: str, value, low: int | None = None, high: int | None = None) -> None:
+    """Checks that an integer setting is an integer in [low, high] (for settings validation).
+
+    Args:
+      flag: The setting's flag name, without dashes.
+      value: The value to check (a float such as 2.0 is not an integer setting).
+      low, high: The range's ends, included (None: unbounded on that side).
+
+    Raises:
+      ValueError: "--FLAG must be an integer in [low, high], got VALUE".
+    """
+    inside = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    inside = inside and (low is None or value >= low) and (high is None or value <= high)
+    if not inside:
+        raise ValueError(f"--{flag} must be an integer {valid_range(low, high)}, got {value!r}")
+
+
 def require_scoring(validation_seeds: int, test_seeds: int, test_tiers) -> tuple[str, ...]:
     """Checks a policy learner's validation seeds, test seeds and score-card tiers.
 
@@ -299,9 +383,14 @@ def require_scoring(validation_seeds: int, test_seeds: int, test_tiers) -> tuple
 BACKENDS = ("local", "ray")  # where runs and trials execute (`cpg_suite.evaluation.ray_backend`)
 
 
-def require_backend(backend: str) -> None:
-    """Raises `ValueError` unless `backend` is one of `BACKENDS`."""
+def require_backend(backend: str, ray_address: str | None = None) -> None:
+    """Raises `ValueError` unless `backend` is one of `BACKENDS` and a Ray address comes
+    only with the Ray backend (the local one would ignore it)."""
     require(backend in BACKENDS, f"--backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
+    require(
+        ray_address is None or backend == "ray",
+        f"--ray_address={ray_address} needs --backend=ray (got --backend={backend})",
+    )
 
 
 def define_backend_flags() -> None:

@@ -46,7 +46,7 @@ import math
 
 import numpy as np
 
-from cpg_suite import portable
+from cpg_suite import cli, portable
 
 # The 11 CEM parameters, thesis Sec. 6.2 order (units: degrees).
 AMPLITUDE_NAMES = (
@@ -152,12 +152,21 @@ class CPGConfig:
             raise ValueError(
                 f"flexion_form must be one of {FLEXION_FORMS}, got {self.flexion_form!r}"
             )
-        for name in ("stride_period", "sigma", "substep"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        for name in ("beta", "ramp_time"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"{name} must be ≥ 0, got {getattr(self, name)}")
+        # The upper ends are choices: beyond them the CPG means nothing on this robot.
+        for name, low, high in (
+            ("stride_period", 0.0, 100.0),  # s
+            ("sigma", 0.0, 2 * math.pi),  # rad of phase
+            ("substep", 0.0, 1.0),  # s
+        ):
+            cli.require_number(name, getattr(self, name), low, high, low_open=True, prefix="")
+        for name, low, high in (
+            ("beta", 0.0, 1e4),  # 1/s
+            ("ramp_time", 0.0, 1e3),  # s
+            ("crouch", 0.0, 90.0),  # degrees of knee flexion
+            ("hip_roll_offset", -45.0, 45.0),  # degrees
+            ("initial_phase", -2 * math.pi, 2 * math.pi),  # rad: a cycle either way
+        ):
+            cli.require_number(name, getattr(self, name), low, high, prefix="")
 
     @property
     def omega(self) -> float:

@@ -24,6 +24,7 @@ if __name__ == "__main__":  # this program renders: a backend that works, chosen
     cli.choose_renderer()
 
 import dataclasses
+import os
 
 from absl import flags
 
@@ -77,6 +78,11 @@ def main(argv: list[str]) -> None:
         render.check_cameras([settings.camera, settings.strip_camera])
     except ValueError as e:
         raise cli.UsageError(str(e)) from None
+    cli.check(
+        os.environ.get("MUJOCO_GL") != "disable",
+        "MUJOCO_GL=disable turns rendering off: unset it (a backend is then chosen) or set "
+        "MUJOCO_GL=egl or osmesa",
+    )
     video, strip_path, status = render.render_files(settings, amplitudes)
     print(f"{video}\n{strip_path}\n{status}")
 

@@ -15,7 +15,7 @@ import os
 import numpy as np
 
 import cpg_suite
-from cpg_suite import cpg, darwin
+from cpg_suite import cli, cpg, darwin
 
 # The tasks a CPG gait is rendered on.
 RENDER_TASKS = ("darwin_walk", "darwin_balance")
@@ -64,11 +64,20 @@ class RenderSettings:
                 f"unknown --task {self.task!r}; explore renders CPG gaits on: "
                 f"{', '.join(RENDER_TASKS)}"
             )
-        for name, low in (("steps", 1), ("width", 16), ("height", 16), ("every", 1), ("frames", 1)):
+        for name, low in (
+            ("seed", 0),
+            ("steps", 1),
+            ("width", 16),
+            ("height", 16),
+            ("every", 1),
+            ("frames", 1),
+        ):
             if getattr(self, name) < low:
                 raise ValueError(f"--{name} must be ≥ {low}, got {getattr(self, name)}")
-        if self.strip_start < 0 or (self.strip_step is not None and self.strip_step <= 0):
-            raise ValueError("--strip_start must be ≥ 0 and --strip_step > 0")
+        duration = self.steps * darwin.CONTROL_TIMESTEP  # s: a snapshot must fall in the trial
+        cli.require_number("strip_start", self.strip_start, 0, duration)
+        if self.strip_step is not None:
+            cli.require_number("strip_step", self.strip_step, 0, duration, low_open=True)
         if self.format not in ("auto", "mp4", "gif"):
             raise ValueError(f"--format must be auto, mp4 or gif, got {self.format!r}")
 

@@ -28,9 +28,12 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from cpg_suite import cpg, darwin, portable
+from cpg_suite import cli, cpg, darwin, portable
 
 AMPLITUDE_SCALE = 10.0  # degrees of amplitude correction per unit action
+# The largest amplitude_scale, degrees (a choice: a correction of 90° exceeds every leg
+# joint's range, so larger scales only saturate the joint targets).
+MAX_AMPLITUDE_SCALE = 90.0
 RATE_SCALE = 0.5  # phase rate ω (1 + RATE_SCALE · a), a in [−1, 1]: 0.5 ω .. 1.5 ω
 N_ACTIONS = cpg.N_AMPLITUDES + 1
 # A walking policy's action spaces: the task's 12 joint targets, or this module's CPG modulation.
@@ -67,11 +70,8 @@ class ModulatedCPG(cpg.CPG):
         """
         if int(rows) < 1:
             raise ValueError(f"rows must be ≥ 1, got {rows!r}")
-        if not amplitude_scale >= 0 or not 0 <= rate_scale < 1:
-            raise ValueError(
-                f"need amplitude_scale ≥ 0 and 0 ≤ rate_scale < 1, got {amplitude_scale}, "
-                f"{rate_scale}"
-            )
+        cli.require_number("amplitude_scale", amplitude_scale, 0, MAX_AMPLITUDE_SCALE)
+        cli.require_number("rate_scale", rate_scale, 0, 1, high_open=True)
         self.nominal = cpg.amplitudes_from(amplitudes)
         self.amplitude_scale, self.rate_scale = float(amplitude_scale), float(rate_scale)
         super().__init__(np.tile(self.nominal, (int(rows), 1)), config)

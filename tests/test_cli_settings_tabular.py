@@ -62,7 +62,7 @@ def test_config_settings_are_the_settings_dataclass(tmp_path):
 
 
 def test_settings_validate_with_one_line_reasons():
-    with pytest.raises(ValueError, match=r"--alpha must lie in \[0, 1\], got 1.5"):
+    with pytest.raises(ValueError, match=r"--alpha must be a finite number in \[0, 1\], got 1.5"):
         TabularSettings(task="pole_balance", alpha=1.5)
     with pytest.raises(ValueError, match="exactly one"):
         TabularSettings()

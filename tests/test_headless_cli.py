@@ -87,7 +87,7 @@ def test_every_command_says_an_unknown_flag_in_one_line(module):
 def test_bad_flag_is_one_line_without_rendering_noise():
     out = _run("-m", "baselines.cem", "--population=1")
     assert out.returncode == 2
-    assert out.stderr.splitlines() == ["error: --population must be ≥ 2, got 1"]
+    assert out.stderr.splitlines() == ["error: --population must be an integer ≥ 2, got 1"]
 
 
 def test_importing_cpg_suite_loads_no_renderer():

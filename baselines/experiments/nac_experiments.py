@@ -88,7 +88,7 @@ class NACExperimentSettings:
         cli.require(self.seeds >= 2, f"--seeds must be ≥ 2, got {self.seeds}")
         cli.require(self.steps >= 100, f"--steps must be ≥ 100, got {self.steps}")
         cli.require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
-        cli.require_backend(self.backend)
+        cli.require_backend(self.backend, self.ray_address)
 
 
 def ci95(values) -> tuple[float, float, float]:

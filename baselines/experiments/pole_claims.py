@@ -525,7 +525,7 @@ class PoleClaimsSettings:
         cli.require(self.seeds >= 2, f"--seeds must be ≥ 2, got {self.seeds}")
         cli.require(self.steps > LAST, f"--steps must exceed {LAST}, got {self.steps}")
         cli.require(self.force_steps >= 1, f"--force_steps must be ≥ 1, got {self.force_steps}")
-        cli.require_backend(self.backend)
+        cli.require_backend(self.backend, self.ray_address)
 
 
 def run_experiment(settings: PoleClaimsSettings) -> list[dict]:

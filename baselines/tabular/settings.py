@@ -10,10 +10,9 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
-
 import cpg_suite
 from baselines.tabular import discretize, exploration, learners, models
+from cpg_suite import cli
 from cpg_suite.cli import require
 
 PLANNERS = ("value_iteration", "policy_iteration")
@@ -150,22 +149,19 @@ def _check_target(s: TabularSettings) -> None:
 def _check_ranges(s: TabularSettings) -> None:
     """Numeric ranges of the settings."""
     for name in ("gamma", "alpha", "lam"):
-        value = getattr(s, name)
-        require(0.0 <= value <= 1.0, f"--{name} must lie in [0, 1], got {value}")
-    require(0.0 <= s.slip < 1.0, f"--slip must lie in [0, 1), got {s.slip}")
+        cli.require_number(name, getattr(s, name), 0, 1)
+    cli.require_number("slip", s.slip, 0, 1, high_open=True)
     require(s.steps >= 1, f"--steps must be ≥ 1, got {s.steps}")
     for name, low in (("sweeps", 0), ("iterations", 1), ("eval_sweeps", 1)):
         value = getattr(s, name)
         require(value is None or value >= low, f"--{name} must be ≥ {low}, got {value}")
-    require(s.tol > 0, f"--tol must be > 0, got {s.tol}")
+    cli.require_number("tol", s.tol, 0, 1e6, low_open=True)  # a choice: the Bellman residual
     require(s.seed >= 0, f"--seed must be ≥ 0, got {s.seed}")
     require(s.actions in (2, 3), f"--actions must be 2 or 3, got {s.actions}")
-    require(
-        s.force is None or (np.isfinite(s.force) and s.force > 0),
-        f"--force must be a positive number of newtons, got {s.force}",
-    )
+    if s.force is not None:
+        cli.require_number("force", s.force, 0, 1e4, low_open=True)  # a choice, N
     require(s.explore_moves >= 0, f"--explore_moves must be ≥ 0, got {s.explore_moves}")
-    require(0.0 <= s.stochastic < 1.0, f"--stochastic must lie in [0, 1), got {s.stochastic}")
+    cli.require_number("stochastic", s.stochastic, 0, 1, high_open=True)
     require(s.eval_moves >= 0, f"--eval_moves must be ≥ 0, got {s.eval_moves}")
     require(
         not (s.algo == "policy_iteration" and s.gamma >= 1.0 and s.model is None),

@@ -17,6 +17,11 @@ from cpg_suite import cli, protocol
 TASKS = protocol.TIERS  # Optimizers may train on any tier.
 
 
+# The largest fall or lateral penalty, m (a choice: six orders of magnitude above the longest
+# walk of a trial, under 20 m, and small enough that no round's sum of costs overflows).
+MAX_PENALTY = 1e6
+
+
 @dataclasses.dataclass(frozen=True)
 class OptimizerSettings:
     """Settings every gait optimizer shares; all of them decide the result.
@@ -59,30 +64,15 @@ class OptimizerSettings:
         require = cli.require
         cli.require_controller(self.controller)
         require(self.task in TASKS, f"unknown --task {self.task!r}; valid: {', '.join(TASKS)}")
-        require(self.population >= 2, f"--population must be ≥ 2, got {self.population}")
-        require(self.rounds >= 1, f"--rounds must be ≥ 1, got {self.rounds}")
-        require(self.seed >= 0, f"--seed must be ≥ 0, got {self.seed}")
-        require(self.trial_steps >= 1, f"--trial_steps must be ≥ 1, got {self.trial_steps}")
-        require(self.eval_seeds >= 1, f"--eval_seeds must be ≥ 1, got {self.eval_seeds}")
-        require(self.fall_penalty >= 0, f"--fall_penalty must be ≥ 0, got {self.fall_penalty}")
-        require(
-            self.lateral_penalty >= 0, f"--lateral_penalty must be ≥ 0, got {self.lateral_penalty}"
-        )
-        require(
-            self.validation_seeds >= 1,
-            f"--validation_seeds must be ≥ 1, got {self.validation_seeds}",
-        )
-        require(
-            self.validation_every >= 0,
-            f"--validation_every must be ≥ 0, got {self.validation_every}",
-        )
-        require(
-            self.validation_top >= 0, f"--validation_top must be ≥ 0, got {self.validation_top}"
-        )
-        require(
-            0 <= self.test_seeds <= len(protocol.TEST),
-            f"--test_seeds must lie in [0, {len(protocol.TEST)}], got {self.test_seeds}",
-        )
+        for name, low in (("population", 2), ("rounds", 1), ("seed", 0), ("trial_steps", 1)):
+            cli.require_integer(name, getattr(self, name), low)
+        cli.require_integer("eval_seeds", self.eval_seeds, 1)
+        cli.require_number("fall_penalty", self.fall_penalty, 0, MAX_PENALTY)
+        cli.require_number("lateral_penalty", self.lateral_penalty, 0, MAX_PENALTY)
+        cli.require_integer("validation_seeds", self.validation_seeds, 1)
+        cli.require_integer("validation_every", self.validation_every, 0)
+        cli.require_integer("validation_top", self.validation_top, 0)
+        cli.require_integer("test_seeds", self.test_seeds, 0, len(protocol.TEST))
 
 
 class Optimizer(Protocol):

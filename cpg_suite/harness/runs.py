@@ -49,7 +49,7 @@ class RunOptions:
     ray_address: str | None = None
 
     def __post_init__(self):
-        cli.require_backend(self.backend)
+        cli.require_backend(self.backend, self.ray_address)
         if self.threads < 1:
             raise ValueError(f"--threads must be ≥ 1, got {self.threads}")
         if self.resume and self.overwrite:

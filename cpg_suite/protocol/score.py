@@ -74,13 +74,10 @@ class ScoreSettings:
             bool(tiers) and not unknown,
             f"unknown --tiers {unknown or tiers}; valid: {', '.join(protocol.TIERS)}",
         )
-        cli.require(
-            1 <= self.seeds <= len(protocol.TEST),
-            f"--seeds must lie in [1, {len(protocol.TEST)}], got {self.seeds}",
-        )
-        cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
-        cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
-        cli.require_backend(self.backend)
+        cli.require_integer("seeds", self.seeds, 1, len(protocol.TEST))
+        cli.require_integer("steps", self.steps, 1)
+        cli.require_integer("threads", self.threads, 1)
+        cli.require_backend(self.backend, self.ray_address)
         cli.require_controller(self.controller)
 
 
