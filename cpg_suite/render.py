@@ -74,10 +74,11 @@ class RenderSettings:
         ):
             if getattr(self, name) < low:
                 raise ValueError(f"--{name} must be ≥ {low}, got {getattr(self, name)}")
-        duration = self.steps * darwin.CONTROL_TIMESTEP  # s: a snapshot must fall in the trial
-        cli.require_number("strip_start", self.strip_start, 0, duration)
+        # Snapshots past the trial's end fall back to frames spread over the whole recording
+        # (`filmstrip`); the upper end, an hour, is a choice.
+        cli.require_number("strip_start", self.strip_start, 0, 3600.0)
         if self.strip_step is not None:
-            cli.require_number("strip_step", self.strip_step, 0, duration, low_open=True)
+            cli.require_number("strip_step", self.strip_step, 0, 3600.0, low_open=True)
         if self.format not in ("auto", "mp4", "gif"):
             raise ValueError(f"--format must be auto, mp4 or gif, got {self.format!r}")
 

@@ -33,6 +33,7 @@ def _without_wall(summary):
     return {k: v for k, v in summary.items() if k != "wall_s"}
 
 
+@pytest.mark.slow  # a training run
 def test_pycma_runs_resumes_and_reaches_the_leaderboard(tmp_path):
     full_options = runs.RunOptions(output_dir=str(tmp_path / "a"))
     run_dir, full = optimize.run(_pycma(1), SETTINGS, full_options, "pycma", log=lambda x: None)

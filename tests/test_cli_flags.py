@@ -120,6 +120,7 @@ def _problems(command: str, outputs: tuple[str, ...], cases: list[dict]) -> list
     return problems
 
 
+@pytest.mark.slow  # about a minute: 32 commands, a thousand cases
 @pytest.mark.skipif(sys.platform != "linux", reason="forked cases: Linux")
 def test_every_flag_of_every_command_refuses_what_it_cannot_mean():
     found = commands()

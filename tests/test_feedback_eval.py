@@ -47,6 +47,7 @@ def test_bad_parameters_are_refused():
             evaluator.evaluate(np.zeros((2, 11)))
 
 
+@pytest.mark.slow  # a training run
 def test_cmaes_tunes_the_feedback_cpg_and_its_card_is_reproducible(tmp_path):
     import json
 
@@ -71,6 +72,7 @@ def test_cmaes_tunes_the_feedback_cpg_and_its_card_is_reproducible(tmp_path):
     assert card["tiers"] == summary["test"]["tiers"]
 
 
+@pytest.mark.slow  # a real local Ray
 def test_feedback_on_ray_equals_local_bit_for_bit():
     """The Ray backend runs the closed-loop evaluator too (chunked over actors): the same
     trials as the local evaluator, bit for bit."""

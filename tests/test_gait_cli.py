@@ -77,6 +77,7 @@ def test_evaluate_bad_params_file(tmp_path):
     assert out.returncode == 2 and "missing" in out.stderr
 
 
+@pytest.mark.slow  # renders a whole trial twice
 @pytest.mark.parametrize("fmt, suffix", [("gif", ".gif"), ("mp4", ".mp4")])
 def test_explore_renders_a_video_and_a_filmstrip(tmp_path, fmt, suffix):
     pytest.importorskip("PIL")

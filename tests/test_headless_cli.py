@@ -46,6 +46,7 @@ def _run(*args, env=None, cwd=None):
     )
 
 
+@pytest.mark.slow  # a child process per command
 @pytest.mark.parametrize("module,flag", WRITERS)
 def test_output_under_a_regular_file_is_one_line_before_any_work(tmp_path, module, flag):
     blocker = tmp_path / "a_file"
@@ -76,6 +77,7 @@ def test_commands_are_found():
     assert {"baselines.cem", "cpg_suite.evaluation.evaluate", "analysis.report"} <= set(_commands())
 
 
+@pytest.mark.slow  # a child process per command
 @pytest.mark.parametrize("module", _commands())
 def test_every_command_says_an_unknown_flag_in_one_line(module):
     out = _run("-m", module, "--no_such_flag=1")

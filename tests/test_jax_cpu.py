@@ -21,6 +21,8 @@ import textwrap
 
 import pytest
 
+pytestmark = pytest.mark.slow  # JAX programs in child processes
+
 pytest.importorskip("jax")
 
 # Four independent batched factorizations per loop step, each after an elementwise kernel

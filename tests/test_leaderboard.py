@@ -94,6 +94,7 @@ def _configuration(root, method, name, seeds, level, evaluations=2501):
         _run(root, method, "darwin_walk", f"{name}_seed{seed}", summary)
 
 
+@pytest.mark.slow  # trains runs for two tracks
 def test_tracks_ranks_ties_and_provisional_rows(tmp_path):
     runs = tmp_path / "runs"
     _configuration(runs, "cmaes", "K50", 10, 5.0)  # clearly first

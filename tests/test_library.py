@@ -117,6 +117,7 @@ print("trained")
 """
 
 
+@pytest.mark.slow  # trains a torch agent
 def test_pytorch_agent_runs_beside_cpg_suite_headless():
     pytest.importorskip("torch")
     pytest.importorskip("stable_baselines3")

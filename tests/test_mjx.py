@@ -13,6 +13,8 @@ import functools
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.slow  # MJX compiled on JAX's CPU backend: minutes
+
 jax = pytest.importorskip("jax")
 pytest.importorskip("mujoco.mjx")
 

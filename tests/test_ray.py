@@ -23,6 +23,8 @@ from cpg_suite.evaluation.open_loop import BatchEvaluator
 from cpg_suite.harness import runs
 from cpg_suite.protocol import score
 
+pytestmark = pytest.mark.slow  # real local Ray clusters
+
 ray = pytest.importorskip("ray")
 
 

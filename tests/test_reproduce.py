@@ -5,6 +5,10 @@ import csv
 import subprocess
 import sys
 
+import pytest
+
+pytestmark = pytest.mark.slow  # re-runs the study's experiments
+
 
 def test_quick_reproduction(tmp_path):
     out = subprocess.run(

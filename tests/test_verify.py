@@ -121,11 +121,14 @@ def test_a_card_extends_an_older_one_only_by_new_keys():
     assert not verify.extends(changed, stored)
 
 
-def test_a_shipped_reference_run_reproduces_quickly():
-    """One shipped CEM run, re-scored on its first test seeds (the slow tier does them all)."""
+@pytest.mark.parametrize("configuration", ["cem/darwin_walk", "ppo_mjx/darwin_walk"])
+def test_a_shipped_reference_run_reproduces_quickly(configuration):
+    """A shipped CEM run and a PPO-on-MJX run (the first: `cpg`, its CPG inside the policy's
+    loop), re-scored on their first test seeds here; the slow tier does every configuration
+    under every CPU variant."""
     artifacts = os.path.join(ROOT, verify.ARTIFACTS)
-    shipped = verify.shipped_runs(os.path.join(artifacts, "cem"))
-    assert shipped, "results/protocol/runs ships no CEM run"
+    shipped = verify.shipped_runs(os.path.join(artifacts, configuration))
+    assert shipped, f"results/protocol/runs ships no {configuration} run"
     assert verify.verify_run(shipped[0], quick=True) == []
 
 
