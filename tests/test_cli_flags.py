@@ -127,10 +127,14 @@ def test_every_flag_of_every_command_refuses_what_it_cannot_mean():
     assert len(found) >= 30, sorted(found)
     with concurrent.futures.ThreadPoolExecutor(max_workers=2) as pool:
         results = dict(zip(found, pool.map(_cases, found)))
-    problems = []
+    problems, tried = [], set()
     for command, cases in results.items():
         assert cases, f"{command}: no flag was tried"
         problems += _problems(command, found[command], cases)
+        tried |= {(k, c["flag"], c["value"]) for c in cases for k in (command, ANY)}
+    problems += [
+        f"{key}: listed as valid, but no command has that flag" for key in VALID if key not in tried
+    ]
     assert not problems, f"{len(problems)} cases:\n" + "\n".join(problems)
 
 
