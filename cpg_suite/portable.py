@@ -1,4 +1,5 @@
-"""Small linear algebra whose results are the same bits on every x86-64 CPU.
+"""Small linear algebra and elementary functions whose results are the same bits on every
+x86-64 CPU.
 
 NumPy's `@`, `dot`, `linalg.eigh` and `multivariate_normal(method="eigh")` go through
 BLAS/LAPACK (OpenBLAS in the wheels), which picks its kernel per CPU: Haswell, SkylakeX and
@@ -8,6 +9,10 @@ within a few hundred steps. The optimizers draw their candidates with the functi
 instead. They use only element-wise IEEE operations (`+`, `-`, `*`, `/`, `sqrt`), each of
 which is correctly rounded whatever SIMD width NumPy's loops use, in a fixed order of
 summation. The matrices are tiny (11 × 11), so the Python loops cost microseconds.
+
+The elementary functions at the end of the module (sin, cos, exp, expm1, tanh, the
+logistic function, atan2, hypot) replace NumPy's, whose loops are chosen per CPU too
+(docs/decisions.md#same-bits-on-every-cpu).
 """
 
 from __future__ import annotations
