@@ -331,10 +331,13 @@ def primitive_basis(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray:
     """
     values = primitive_values(phases, omega, config)
     out = np.zeros(values.shape[:-2] + (N_AMPLITUDES, 12))
-    out[..., _ENTRY_AMPLITUDES, _ENTRY_JOINTS] = (
-        values[..., _ENTRY_LEGS, _ENTRY_VALUES] * _ENTRY_SIGNS
-    )
+    out[..., _ENTRY_AMPLITUDES, _ENTRY_JOINTS] = _entries(values)
     return out
+
+
+def _entries(values: np.ndarray) -> np.ndarray:
+    """The basis' 22 nonzero entries (`_BASIS_ENTRIES`, both legs) from `primitive_values`."""
+    return values[..., _ENTRY_LEGS, _ENTRY_VALUES] * _ENTRY_SIGNS
 
 
 def combine(amplitudes: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -351,8 +354,7 @@ def combine(amplitudes: np.ndarray, values: np.ndarray) -> np.ndarray:
     Returns:
       (..., K, 12) rates of the anatomical variables, degrees/s.
     """
-    basis = values[..., _ENTRY_LEGS, _ENTRY_VALUES] * _ENTRY_SIGNS  # (..., 22)
-    terms = amplitudes[:, _ENTRY_AMPLITUDES] * basis
+    terms = amplitudes[:, _ENTRY_AMPLITUDES] * _entries(values)  # (..., K, 22)
     zero = np.zeros(terms.shape[:-1] + (1,))
     terms = np.concatenate([terms, zero], axis=-1)[..., _JOINT_TERMS]  # (..., 12, 4)
     return ((terms[..., 0] + terms[..., 1]) + terms[..., 2]) + terms[..., 3]
@@ -422,18 +424,28 @@ class CPG:
     def _rates(self, t: float) -> np.ndarray:
         # sin φ is kept for `_advance_phases`, which the same substep calls next (φ unchanged).
         values, self._sin_phi = _values_and_sin(self._phases_at(t), self._omega(), self.config)
-        ramp = np.asarray(self._ramp(t))
-        rates = ramp[..., None] * combine(self.amplitudes, values)  # (K, 12)
-        rates[:, ROLL_JOINTS] += self.roll_input[:, [0, 0, 1, 1]]
+        return self._rates_from(values, t)
+
+    def _rates_from(self, values: np.ndarray, t) -> np.ndarray:
+        """ż's primitive part (Eq. 5.2) from `primitive_values` at time(s) t: the ramp times
+        Σₚ Aₚ basisₚ, plus the DMP term's roll input; (..., K, 12)."""
+        rates = np.asarray(self._ramp(t))[..., None] * combine(self.amplitudes, values)
+        rates[..., ROLL_JOINTS] += self.roll_input[:, [0, 0, 1, 1]]
         return rates
 
-    def step(self, dt: float) -> np.ndarray:
-        """Advances by `dt` seconds; returns the joint targets, radians ((12,) or (K, 12))."""
+    def _substeps(self, dt: float) -> tuple[int, float, float, float]:
+        """`(n, h, decay, gain)`: a step of `dt` in n substeps of h, and the exact
+        exponential integration of the relaxation term over one (z ← O + (z − O)·decay +
+        gain·rates)."""
         cfg = self.config
         n = max(1, int(round(dt / cfg.substep)))
         h = dt / n
         decay = math.exp(-cfg.beta * h)
-        gain = (1.0 - decay) / cfg.beta if cfg.beta > 0 else h
+        return n, h, decay, (1.0 - decay) / cfg.beta if cfg.beta > 0 else h
+
+    def step(self, dt: float) -> np.ndarray:
+        """Advances by `dt` seconds; returns the joint targets, radians ((12,) or (K, 12))."""
+        n, h, decay, gain = self._substeps(dt)
         for _ in range(n):
             rates = self._rates(self.time + 0.5 * h)
             self._advance_phases(self.time + 0.5 * h, h)

@@ -21,8 +21,6 @@ phase (cos φ_L, sin φ_L) to the observations as `"cpg_phase"`.
 
 from __future__ import annotations
 
-import math
-
 import gymnasium
 import numpy as np
 from gymnasium.vector import AutoresetMode
@@ -111,7 +109,11 @@ class ModulatedCPG(cpg.CPG):
 
     def left_phase(self) -> np.ndarray:
         """φ_L of every row now, rad (unwrapped), (K,)."""
-        return self.config.initial_phase + self.config.omega * self.time + self.delta
+        return self._left(self.time, self.delta)
+
+    def _left(self, t, delta) -> np.ndarray:
+        """φ_L = φ_L⁰(t) + δ at time(s) t with phase deviation(s) δ."""
+        return self.config.initial_phase + self.config.omega * t + delta
 
     def phase_features(self) -> np.ndarray:
         """(K, 2): cos φ_L, sin φ_L."""
@@ -119,11 +121,7 @@ class ModulatedCPG(cpg.CPG):
         sin_phi, cos_phi = portable.sincos(phi)
         return np.stack([cos_phi, sin_phi], axis=-1)
 
-    # Hooks of `cpg.CPG.step`, with a time per row.
-    def _phases_at(self, t) -> np.ndarray:
-        left = self.config.initial_phase + self.config.omega * t + self.delta
-        return np.stack([left, left - np.pi], axis=-1)  # (K, 2)
-
+    # Hooks of `cpg.CPG`, with a time per row.
     def _omega(self) -> np.ndarray:
         return self.config.omega * self.rate  # (K,): φ̇ of each row
 
@@ -131,9 +129,6 @@ class ModulatedCPG(cpg.CPG):
         if self.config.ramp_time > 0:
             return cpg.smoothstep(t / self.config.ramp_time)
         return np.ones(self.rows)
-
-    def _advance_phases(self, t, h: float) -> None:
-        self.delta = self.delta + (self.rate - 1.0) * self.config.omega * h
 
     def step(self, dt: float) -> np.ndarray:
         """`cpg.CPG.step` with the substeps' rates computed in one batch: a row's phases
@@ -147,19 +142,15 @@ class ModulatedCPG(cpg.CPG):
           (K, 12) joint targets, radians.
         """
         cfg = self.config
-        n = max(1, int(round(dt / cfg.substep)))
-        h = dt / n
-        decay = math.exp(-cfg.beta * h)
-        gain = (1.0 - decay) / cfg.beta if cfg.beta > 0 else h
+        n, h, decay, gain = self._substeps(dt)
         steps = np.full((n, self.rows), h)
         times = np.cumsum(np.concatenate([self.time[None], steps]), axis=0)  # (n + 1, K)
         increment = np.broadcast_to((self.rate - 1.0) * cfg.omega * h, steps.shape)
         deltas = np.cumsum(np.concatenate([self.delta[None], increment]), axis=0)
         mid = times[:n] + 0.5 * h  # the substeps' mid-times, as `_rates` is called with
-        left = cfg.initial_phase + cfg.omega * mid + deltas[:n]
+        left = self._left(mid, deltas[:n])
         values = cpg.primitive_values(np.stack([left, left - np.pi], axis=-1), self._omega(), cfg)
-        rates = self._ramp(mid)[..., None] * cpg.combine(self.amplitudes, values)  # (n, K, 12)
-        rates[..., cpg.ROLL_JOINTS] += self.roll_input[:, [0, 0, 1, 1]]
+        rates = self._rates_from(values, mid)  # (n, K, 12)
         for k in range(n):
             self.z = self._offsets + (self.z - self._offsets) * decay + gain * rates[k]
         self.time, self.delta = times[n], deltas[n]
