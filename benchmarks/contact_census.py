@@ -108,7 +108,7 @@ def census_trial(policy, tier: str, seed: int, steps: int) -> dict:
     env, observation, n_sub = score.start_trial(policy, tier, seed)
     physics = env.physics
     kept = kept_geoms(physics.model)
-    _, fall_step, records = score.step_policy(
+    _, (fall_step, _), records = score.step_policy(
         policy,
         env.task,
         physics,

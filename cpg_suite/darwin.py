@@ -47,7 +47,7 @@ from dm_control.rl import control
 from dm_control.utils import containers
 from dm_env import specs
 
-from cpg_suite import base, cpg, perturbations, portable
+from cpg_suite import base, cpg, electrical, perturbations, portable
 
 CONTROL_TIMESTEP = 0.016  # s: Webots DARwIn-OP basicTimeStep (the one definition).
 DEFAULT_TIME_LIMIT = 16.0  # s: 1000 control steps ("1000 timesteps" of the study).
@@ -165,6 +165,7 @@ def walk(
     init_noise: float = INIT_NOISE,
     servo_gain: float | None = None,
     torque_limit: float | None = None,
+    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Returns the walking task: reward = forward torso displacement per step (m).
@@ -177,13 +178,18 @@ def walk(
       init_noise: Half-width of the uniform perturbation of each leg joint, rad.
       servo_gain: Position gain kp of every servo, N·m/rad (default: the model's 40).
       torque_limit: Torque limit of every servo, N·m (default: the model's 2.5).
+      supply: The supply's limit: a mean current over a window above it browns the servos
+        out and ends the episode like a fall (`electrical.SupplyLimit`; default 10 A over
+        1 s). None: the study's unlimited physics.
       environment_kwargs: Passed to `control.Environment`.
 
     Returns:
       A `control.Environment`.
     """
     servo = {"servo_gain": servo_gain, "torque_limit": torque_limit}
-    return _environment("walk", time_limit, random, posture, init_noise, servo, environment_kwargs)
+    return _environment(
+        "walk", time_limit, random, posture, init_noise, servo, environment_kwargs, supply=supply
+    )
 
 
 @SUITE.add("benchmarking")
@@ -194,6 +200,7 @@ def balance(
     init_noise: float = INIT_NOISE,
     servo_gain: float | None = None,
     torque_limit: float | None = None,
+    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Returns the balance task: reward = −(COP distance to the stance sole centre), m.
@@ -205,7 +212,7 @@ def balance(
     """
     servo = {"servo_gain": servo_gain, "torque_limit": torque_limit}
     return _environment(
-        "balance", time_limit, random, posture, init_noise, servo, environment_kwargs
+        "balance", time_limit, random, posture, init_noise, servo, environment_kwargs, supply=supply
     )
 
 
@@ -215,12 +222,13 @@ def walk_randomized(
     random=None,
     posture: np.ndarray | None = None,
     randomization: perturbations.Randomization | None = None,
+    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Walking with the physical parameters drawn per episode (the randomized test tier).
 
     Args:
-      time_limit, random, posture, environment_kwargs: As for `walk`.
+      time_limit, random, posture, supply, environment_kwargs: As for `walk`.
       randomization: The ranges (default `perturbations.Randomization()`); its
         `init_noise` replaces the nominal initial-posture noise.
 
@@ -234,6 +242,7 @@ def walk_randomized(
         posture,
         environment_kwargs,
         randomization.init_noise,
+        supply,
         randomization=randomization,
     )
 
@@ -244,19 +253,20 @@ def walk_push(
     random=None,
     posture: np.ndarray | None = None,
     pushes: perturbations.Pushes | None = None,
+    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Walking with random horizontal pushes on the torso (the push test tier).
 
     Args:
-      time_limit, random, posture, environment_kwargs: As for `walk`.
+      time_limit, random, posture, supply, environment_kwargs: As for `walk`.
       pushes: When, how hard and how long (default `perturbations.Pushes()`).
 
     Returns:
       A `control.Environment`.
     """
     pushes = pushes or perturbations.Pushes()
-    return _tier(time_limit, random, posture, environment_kwargs, INIT_NOISE, pushes=pushes)
+    return _tier(time_limit, random, posture, environment_kwargs, INIT_NOISE, supply, pushes=pushes)
 
 
 @SUITE.add()
@@ -265,26 +275,37 @@ def walk_rough(
     random=None,
     posture: np.ndarray | None = None,
     terrain: perturbations.Terrain | None = None,
+    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Walking on uneven ground: tiles raised at random per episode (the rough test tier).
 
     Args:
-      time_limit, random, posture, environment_kwargs: As for `walk`.
+      time_limit, random, posture, supply, environment_kwargs: As for `walk`.
       terrain: The tiles (default `perturbations.Terrain()`); `max_height=0` is the plane.
 
     Returns:
       A `control.Environment`.
     """
     terrain = terrain or perturbations.Terrain()
-    return _tier(time_limit, random, posture, environment_kwargs, INIT_NOISE, terrain=terrain)
+    return _tier(
+        time_limit, random, posture, environment_kwargs, INIT_NOISE, supply, terrain=terrain
+    )
 
 
-def _tier(time_limit, random, posture, environment_kwargs, init_noise, **perturbation):
+def _tier(time_limit, random, posture, environment_kwargs, init_noise, supply, **perturbation):
     """The walking task with one perturbation (nominal servos)."""
     servo = {"servo_gain": None, "torque_limit": None}
     return _environment(
-        "walk", time_limit, random, posture, init_noise, servo, environment_kwargs, perturbation
+        "walk",
+        time_limit,
+        random,
+        posture,
+        init_noise,
+        servo,
+        environment_kwargs,
+        perturbation,
+        supply=supply,
     )
 
 
@@ -297,6 +318,7 @@ def _environment(
     servo,
     environment_kwargs,
     perturbation: dict | None = None,
+    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
 ):
     perturbation = perturbation or {}
     physics = Physics.from_xml_string(*get_model_and_assets(perturbation.get("terrain")))
@@ -304,7 +326,14 @@ def _environment(
         physics.set_servo_gain(servo["servo_gain"])
     if servo["torque_limit"] is not None:
         physics.set_torque_limit(servo["torque_limit"])
-    task = CPGTask(objective, posture=posture, init_noise=init_noise, random=random, **perturbation)
+    task = CPGTask(
+        objective,
+        posture=posture,
+        init_noise=init_noise,
+        random=random,
+        supply=supply,
+        **perturbation,
+    )
     return base.make_environment(physics, task, time_limit, CONTROL_TIMESTEP, environment_kwargs)
 
 
@@ -356,12 +385,93 @@ class Physics(mujoco.Physics):
             "sole_velocities": slice(
                 sensor("sole_velocity_l").start, sensor("sole_velocity_r").stop
             ),
+            "servo_forces": slice(
+                sensor(f"force_{cpg.LEG_JOINTS[0]}").start, sensor(f"force_{ARM_JOINTS[-1]}").stop
+            ),
         }
+        # The joint each servo turns, in actuator order (`cpg_suite.electrical`).
+        self._servo_dofs = model.jnt_dofadr[model.actuator_trnid[:, 0]].copy()
+        names = [model.id2name(int(i), "actuator") for i in range(model.nu)]
+        if names != [*cpg.LEG_JOINTS, *ARM_JOINTS] or model.opt.integrator == mj.mjtIntegrator.mjINT_RK4:
+            raise ValueError("expects the legs' then the arms' servos and a one-stage integrator")
+        self._step_force = np.zeros((0, model.nu))  # per physics step of the last `substeps`
+        self._step_qvel = np.zeros((0, model.nv))
         self._leg_range = model.jnt_range[[model.name2id(n, "joint") for n in cpg.LEG_JOINTS]]
         self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
         names = [model.id2name(i, "geom") or "" for i in range(model.ngeom)]
         self._tiles = np.array([i for i, n in enumerate(names) if n.startswith("tile")], int)
         self._ground = np.array([self._floor, *self._feet, *self._tiles], int)
+
+    # Stepping, recording what the electrical model needs.
+    def step(self, nstep: int = 1) -> None:
+        """dm_control's step, recording each physics step's servo forces and joint velocities.
+
+        As `dm_control.mujoco.Physics.step` (legacy stepping): `mj_step2` finishes the step
+        whose `mj_step1` ran for the last observation, `mj_step` takes the others, then
+        `mj_step1` brings positions and velocities up to date; a new invalid-state warning
+        raises `PhysicsError`. The same MuJoCo calls, so the same trajectory.
+
+        Args:
+          nstep: Physics steps.
+        """
+        with self.check_invalid_state():
+            self.substeps(nstep, finish=True)
+            mj.mj_step1(self.model.ptr, self.data.ptr)
+
+    def substeps(self, nstep: int, finish: bool = False, record=None) -> list:
+        """Takes `nstep` physics steps, recording after each the servos' forces and the
+        joint velocities (`servo_steps`).
+
+        Args:
+          nstep: Physics steps.
+          finish: The first step is `mj_step2` (`mj_step1` already ran), else `mj_step`.
+          record: Called with the physics after each step; its values are returned.
+
+        Returns:
+          The values `record` returned (empty without one).
+        """
+        model, data = self.model.ptr, self.data.ptr
+        if len(self._step_force) != nstep:
+            self._step_force = np.zeros((nstep, model.nu))
+            self._step_qvel = np.zeros((nstep, model.nv))
+        force, qvel, records = self._step_force, self._step_qvel, []
+        for i in range(nstep):
+            if finish and i == 0:
+                mj.mj_step2(model, data)
+            else:
+                mj.mj_step(model, data)
+            force[i] = data.actuator_force
+            qvel[i] = data.qvel
+            if record is not None:
+                records.append(record(self))
+        return records
+
+    def servo_steps(self) -> tuple[np.ndarray, np.ndarray]:
+        """The 20 servos' forces (N·m) and their joints' velocities (rad/s) after each physics
+        step of the last `step`, as (n, 20) arrays in actuator order."""
+        return self._step_force, self._step_qvel[:, self._servo_dofs]
+
+    def servo_damping(self) -> np.ndarray:
+        """The damping of the 20 servos' joints, N·m·s/rad: their back-EMF braking."""
+        return self.model.dof_damping[self._servo_dofs]
+
+    def supply_currents(self) -> np.ndarray:
+        """The robot's supply current after each physics step of the last `step`, A
+        (`electrical.supply_current`)."""
+        force, velocity = self.servo_steps()
+        return electrical.supply_current(force, velocity, self.servo_damping())
+
+    def servo_forces(self) -> np.ndarray:
+        """The 20 servos' forces, N·m, in actuator order (`actuatorfrc` sensors)."""
+        return self.data.sensordata[self._sensors["servo_forces"]].copy()
+
+    def servo_velocities(self) -> np.ndarray:
+        """The 20 servos' joint velocities, rad/s, in actuator order."""
+        return self.data.qvel[self._servo_dofs]
+
+    def servo_dofs(self) -> np.ndarray:
+        """The 20 servos' joint addresses in `qvel`, in actuator order."""
+        return self._servo_dofs.copy()
 
     # Joints and servos.
     def set_servo_gain(self, kp: float) -> None:
@@ -704,6 +814,7 @@ class CPGTask(base.Task):
         randomization: perturbations.Randomization | None = None,
         pushes: perturbations.Pushes | None = None,
         terrain: perturbations.Terrain | None = None,
+        supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
     ):
         """Initializes the task.
 
@@ -715,6 +826,8 @@ class CPGTask(base.Task):
           randomization: Draw the physical parameters per episode from these ranges.
           pushes: Push the torso as these describe, drawn per episode.
           terrain: Raise the model's tiles (it must have them) per episode.
+          supply: The supply's limit (a brown-out ends the episode like a fall); None: the
+            study's unlimited physics. The supply current is measured either way.
 
         Raises:
           ValueError: On an unknown objective, a posture of the wrong shape, or negative
@@ -727,11 +840,16 @@ class CPGTask(base.Task):
             raise ValueError(f"posture must be 12 finite leg joint angles, got {posture!r}")
         if not init_noise >= 0:
             raise ValueError(f"init_noise must be ≥ 0, got {init_noise!r}")
+        if supply is not None and not isinstance(supply, electrical.SupplyLimit):
+            raise ValueError(f"supply must be an electrical.SupplyLimit or None, got {supply!r}")
         self.objective = objective
         self.posture = posture
         self.init_noise = float(init_noise)
         self._action_spec = specs.BoundedArray((12,), np.float64, -1.0, 1.0, name="leg_targets")
         self.randomization, self.pushes, self.terrain = randomization, pushes, terrain
+        self.supply_limit = supply
+        self.supply: electrical.SupplyMonitor | None = None  # this episode's supply current
+        self.failure: str | None = None  # why the episode ended early (`electrical.CAUSES`)
         self.episode_parameters: dict = {}
         self.push_schedule: list[tuple] = []
         self._nominal_torso = None
@@ -755,6 +873,12 @@ class CPGTask(base.Task):
             self.push_schedule = self.pushes.sample(self.random, CONTROL_TIMESTEP)
             physics.set_torso_push(np.zeros(3))
         physics.set_standing_pose(self.posture + noise)
+        if self.supply is None:
+            limit = self.supply_limit or electrical.SupplyLimit()
+            enforce = self.supply_limit is not None
+            self.supply = electrical.SupplyMonitor(limit, physics.timestep(), enforce)
+        self.supply.reset()
+        self.failure = None
         self.start_position = physics.torso_position()
         self._x_before = self.start_position[0]
         super().initialize_episode(physics)
@@ -801,8 +925,18 @@ class CPGTask(base.Task):
             return physics.forward_position() - self._x_before
         return physics.balance_reward()
 
+    def after_step(self, physics: Physics) -> None:
+        """Adds the step's supply currents to the episode's (`electrical.SupplyMonitor`)."""
+        self.supply.update(physics.supply_currents())
+        super().after_step(physics)
+
     def get_termination(self, physics: Physics):
-        return 0.0 if physics.fallen() else None
+        """A fall or a brown-out ends the episode (discount 0); `failure` says which."""
+        if physics.fallen():
+            self.failure = "fall"
+        elif self.supply.browned_out:
+            self.failure = "brownout"
+        return 0.0 if self.failure else None
 
     def reward_to_unit(self, reward: float) -> float:
         if self.objective == "walk":

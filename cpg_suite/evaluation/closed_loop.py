@@ -20,10 +20,12 @@ import mujoco
 import numpy as np
 
 import cpg_suite
-from cpg_suite import cpg, darwin, feedback
+from cpg_suite import cpg, darwin, electrical, feedback
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 from cpg_suite.evaluation import quality as gait_quality
 from cpg_suite.evaluation.open_loop import (
+    BROWNOUT,
+    FALL,
     RECORDED_SENSORS,
     BatchEvaluator,
     BatchResult,
@@ -63,8 +65,8 @@ class FeedbackPolicy:
 class _Trial:
     """One trial's MuJoCo data and what it has measured so far."""
 
-    def __init__(self, episode: Episode, root: int):
-        self.model, self.pushes = episode.model, episode.pushes
+    def __init__(self, episode: Episode, root: int, supply: electrical.SupplyMonitor):
+        self.model, self.pushes, self.supply = episode.model, episode.pushes, supply
         self.data = mujoco.MjData(episode.model)
         mujoco.mj_setState(self.model, self.data, episode.state, _FULLPHYSICS)
         self.data.ctrl[:] = episode.ctrl
@@ -72,7 +74,7 @@ class _Trial:
         self.start = self.data.qpos[root : root + 2].copy()
         self.last = self.start.copy()
         self.root = self.data.qpos[root : root + 7].copy()
-        self.fall_step, self.simulated, self.record = 0, 0, []
+        self.fall_step, self.cause, self.simulated, self.record = 0, 0, 0, []
 
 
 class FeedbackEvaluator:
@@ -104,6 +106,8 @@ class FeedbackEvaluator:
         self._legs = physics.leg_dofs()
         self._torso = physics.torso_body()
         self._sensors = physics.sensor_slices()
+        self._servo_dofs = physics.servo_dofs()
+        self.supply = self._open.supply  # None: the study's unlimited physics
         self._root = int(physics.model.jnt_qposadr[physics.model.name2id("root", "joint")])
         self._executor = concurrent.futures.ThreadPoolExecutor(threads) if threads > 1 else None
         self.threads = threads
@@ -135,7 +139,11 @@ class FeedbackEvaluator:
         p = np.atleast_2d(np.asarray(params, dtype=np.float64))
         seeds = [int(s) for s in np.atleast_1d(seeds)]
         rows = np.repeat(p, len(seeds), axis=0)  # trial i = (k, seed) = (i // S, i % S)
-        trials = [_Trial(self._open.episode(s), self._root) for _ in p for s in seeds]
+        trials = [
+            _Trial(self._open.episode(s), self._root, self._open._monitor(self._open.episode(s)))
+            for _ in p
+            for s in seeds
+        ]
         controller = feedback.FeedbackCPG(rows, self.config)
         active = list(range(len(trials)))
         for t in range(self.steps):
@@ -159,12 +167,13 @@ class FeedbackEvaluator:
 
     @staticmethod
     def _falls(stepped: list[_Trial], t: int) -> None:
-        """Marks the trials whose torso has fallen after control step t (`has_fallen`)."""
-        alive = [trial for trial in stepped if not trial.fall_step]
+        """Marks the trials whose torso has fallen after control step t (`has_fallen`); a
+        fall in a brown-out's control step is the cause, as in the task."""
+        alive = [tr for tr in stepped if not tr.fall_step or tr.cause == BROWNOUT]
         if alive:
             fallen = darwin.has_fallen(np.array([trial.root for trial in alive]))
             for trial in np.array(alive, dtype=object)[fallen]:
-                trial.fall_step = t + 1
+                trial.fall_step, trial.cause = t + 1, FALL
 
     def _step_all(self, work: list, t: int, quality: bool) -> None:
         if self._executor is None:
@@ -185,14 +194,21 @@ class FeedbackEvaluator:
         if trial.pushes is not None:
             data.xfrc_applied[self._torso, :3] = trial.pushes[t]
         clear_invalid_state_warnings(data)
-        for _ in range(self.n_sub):
+        force = np.empty((self.n_sub, model.nu))
+        velocity = np.empty((self.n_sub, len(self._servo_dofs)))
+        for i in range(self.n_sub):
             mujoco.mj_step(model, data)
+            force[i] = data.actuator_force
+            velocity[i] = data.qvel[self._servo_dofs]
             if quality:
                 trial.record.append(self._record(data))
         trial.simulated += self.n_sub
         if invalid_state(data):
-            trial.fall_step = t + 1
+            trial.fall_step, trial.cause = t + 1, FALL
             return
+        damping = model.dof_damping[self._servo_dofs]
+        if trial.supply.update(electrical.supply_current(force, velocity, damping)):
+            trial.fall_step, trial.cause = t + 1, BROWNOUT  # unless it fell too (`_falls`)
         mujoco.mj_step1(model, data)
         trial.root = data.qpos[self._root : self._root + 7].copy()
         trial.last = trial.root[:2]
@@ -201,8 +217,8 @@ class FeedbackEvaluator:
         s = self._sensors
         return np.concatenate(
             [
-                data.qvel[self._legs],
-                data.sensordata[s["leg_torques"]],
+                data.qvel[self._servo_dofs],
+                data.sensordata[s["servo_forces"]],
                 data.sensordata[s["foot_touch"]],
                 data.sensordata[s["sole_velocities"]],
             ]
@@ -218,18 +234,21 @@ class FeedbackEvaluator:
             measured = {
                 f: np.array([c[f] for c in cards]).reshape(shape) for f in gait_quality.FIELDS
             }
-        return BatchResult(distance, lateral, fall, int(sum(t.simulated for t in trials)), measured)
+        cause = np.array([t.cause for t in trials]).reshape(shape)
+        simulated = int(sum(t.simulated for t in trials))
+        return BatchResult(distance, lateral, fall, simulated, measured, cause)
 
     def _measures(self, trial: _Trial, distance: float) -> dict:
-        s = self._sensors
-        width = 12 + sum(s[k].stop - s[k].start for k in RECORDED_SENSORS)
+        s, n = self._sensors, len(self._servo_dofs)
+        width = n + sum(s[k].stop - s[k].start for k in RECORDED_SENSORS)
         record = np.array(trial.record) if trial.record else np.zeros((0, width))
-        torque, touch, sole = np.split(record[:, 12:], [12, 14], axis=1)
+        force, touch, sole = np.split(record[:, n:], [n, n + 2], axis=1)
         return gait_quality.measures(
-            record[:, :12],
-            torque,
+            record[:, :n],
+            force,
             touch,
             sole.reshape(-1, 2, 3),
+            damping=trial.model.dof_damping[self._servo_dofs],
             timestep=float(trial.model.opt.timestep),
             torque_limit=float(trial.model.actuator_forcerange[0, 1]),
             mass=float(trial.model.body_subtreemass[self._torso]),

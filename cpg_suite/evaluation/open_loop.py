@@ -32,7 +32,7 @@ import numpy as np
 from mujoco import rollout
 
 import cpg_suite
-from cpg_suite import cpg, darwin
+from cpg_suite import cpg, darwin, electrical
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 from cpg_suite.evaluation import quality as gait_quality
 from cpg_suite.evaluation.gait import DARWIN_TASKS
@@ -55,8 +55,12 @@ class Episode:
     ctrl: np.ndarray | None = None  # the reset's actuator controls (the posture's targets)
 
 
-# The sensors a trial records for its gait measures, in the record's order.
-RECORDED_SENSORS = ("leg_torques", "foot_touch", "sole_velocities")
+# The sensors a trial records for its gait measures and its electrical load, in the
+# record's order (after the 20 servos' joint velocities).
+RECORDED_SENSORS = ("servo_forces", "foot_touch", "sole_velocities")
+# Why a trial ended early (`BatchResult.cause`): 0 it did not, else 1 + the index in
+# `electrical.CAUSES` (1 a fall or a divergent simulation, 2 a brown-out).
+FALL, BROWNOUT = 1 + electrical.CAUSES.index("fall"), 1 + electrical.CAUSES.index("brownout")
 
 
 @dataclasses.dataclass
@@ -65,12 +69,14 @@ class BatchResult:
 
     distance_m: np.ndarray  # (K, S) torso x displacement at the end or at the fall
     lateral_m: np.ndarray  # (K, S) torso y displacement
-    fall_step: np.ndarray  # (K, S) 1-based control step of the fall, 0 = no fall
+    fall_step: np.ndarray  # (K, S) 1-based control step of the failure, 0 = none
     sim_steps: int  # physics steps simulated
     quality: dict | None = None  # (K, S) arrays of `cpg_suite.evaluation.quality.FIELDS`, if asked
+    cause: np.ndarray | None = None  # (K, S) why it ended early: 0, `FALL` or `BROWNOUT`
 
     @property
     def fell(self) -> np.ndarray:
+        """Failed: a fall or a brown-out ended the trial early (`cause` says which)."""
         return self.fall_step > 0
 
 
@@ -132,7 +138,9 @@ class BatchEvaluator:
         self._reset_env = cpg_suite.load(task, task_kwargs=self._task_kwargs)
         self._torso = env.physics.torso_body()
         nq = self.model.nq
-        self._leg_qvel = 1 + nq + env.physics.leg_dofs()  # in the FULLPHYSICS state
+        self._servo_qvel = 1 + nq + env.physics.servo_dofs()  # in the FULLPHYSICS state
+        self._servo_dofs = env.physics.servo_dofs()
+        self.supply = env.task.supply_limit  # None: the study's unlimited physics
         slices = env.physics.sensor_slices()
         self._sensors = {k: slices[k] for k in RECORDED_SENSORS}
         self._local = threading.local()
@@ -188,17 +196,21 @@ class BatchEvaluator:
         return local
 
     def _run_one(self, ctrl: np.ndarray, episode: Episode, quality: bool = False) -> tuple:
-        """One trajectory: (distance, lateral, fall_step or 0, physics steps, quality or None).
+        """One trajectory: (distance, lateral, failure step or 0, physics steps, quality or
+        None, cause).
 
         A divergent simulation (MuJoCo's invalid-state warnings, after which MuJoCo resets
         the model to its initial pose) is a fall at the control step where it happened,
-        with the displacement of the last valid control step, as in the environment.
+        with the displacement of the last valid control step, as in the environment. A
+        brown-out (`electrical.SupplyMonitor`) ends the trial at the control step whose
+        physics step crossed the limit; a fall in the same control step is the cause.
         """
         worker = self._worker()
         state0 = episode.state
         start = state0[self._root][:2].copy()
         state, warm = state0[None].copy(), np.zeros((1, self.model.nv))
-        last, fall_step, simulated = state0[self._root], 0, 0
+        last, fall_step, simulated, cause = state0[self._root], 0, 0, 0
+        supply = self._monitor(episode)
         trace = [] if quality else None
         for begin in range(0, self.steps, self.segment):
             end = min(begin + self.segment, self.steps)
@@ -207,13 +219,15 @@ class BatchEvaluator:
                 worker, episode.model, steps, state, warm
             )
             simulated += (end - begin) * self.n_sub
-            if diverged is not None:
-                roots = roots[:diverged]  # The control steps before the divergent one.
-            fallen = np.flatnonzero(darwin.has_fallen(roots))
-            if fallen.size:
-                fall_step, last = begin + int(fallen[0]) + 1, roots[int(fallen[0])]
-            elif diverged is not None:
-                fall_step, last = begin + diverged + 1, roots[-1] if len(roots) else last
+            ended = self._failure(roots, diverged, supply, record, episode)
+            if ended is not None:
+                step, cause = ended
+                fall_step = begin + step
+                valid = len(roots) if diverged is None else diverged  # control steps
+                if step <= valid:
+                    last = roots[step - 1]
+                elif valid:
+                    last = roots[valid - 1]  # a divergence: the last valid control step
             else:
                 last = roots[-1]
             if trace is not None:
@@ -224,21 +238,48 @@ class BatchEvaluator:
             state, warm = final
         distance = float(last[0] - start[0])
         measures = self._measures(trace, episode, distance) if quality else None
-        return distance, float(last[1] - start[1]), fall_step, simulated, measures
+        return distance, float(last[1] - start[1]), fall_step, simulated, measures, cause
+
+    def _monitor(self, episode: Episode) -> electrical.SupplyMonitor:
+        limit = self.supply or electrical.SupplyLimit()
+        return electrical.SupplyMonitor(limit, float(episode.model.opt.timestep), self.supply is not None)
+
+    def _failure(self, roots, diverged, supply, record, episode) -> tuple[int, int] | None:
+        """The segment's first failure: (its 1-based control step in the segment, cause).
+
+        A fall (the torso's test after a control step, or a divergence) and a brown-out (the
+        supply's window crossing the limit at a physics step) in the same control step count
+        as a fall, as the task's termination tests the fall first.
+        """
+        n = len(roots) if diverged is None else diverged
+        fallen = np.flatnonzero(darwin.has_fallen(roots[:n]))
+        fall = int(fallen[0]) + 1 if fallen.size else (diverged + 1 if diverged is not None else 0)
+        width = len(self._servo_qvel)
+        limit_steps = (fall if fall else len(roots)) * self.n_sub
+        currents = electrical.supply_current(
+            record[:limit_steps, width : 2 * width],
+            record[:limit_steps, :width],
+            episode.model.dof_damping[self._servo_dofs],
+        )
+        crossed = supply.update(currents)
+        brownout = (crossed - 1) // self.n_sub + 1 if crossed else 0
+        if brownout and (not fall or brownout < fall):
+            return brownout, BROWNOUT
+        return (fall, FALL) if fall else None
 
     def _measures(self, trace: list, episode: Episode, distance: float) -> dict:
         """Gait quality of a trajectory from its recorded physics steps."""
         record = np.concatenate(trace) if trace else np.zeros((0, self._record_width()))
-        n_legs = len(self._leg_qvel)
-        sensors = record[:, n_legs:]
+        width = len(self._servo_qvel)
         widths = [self._sensors[k].stop - self._sensors[k].start for k in self._sensors]
-        torque, touch, sole = np.split(sensors, np.cumsum(widths)[:-1], axis=1)
+        force, touch, sole = np.split(record[:, width:], np.cumsum(widths)[:-1], axis=1)
         model = episode.model
         return gait_quality.measures(
-            record[:, :n_legs],
-            torque,
+            record[:, :width],
+            force,
             touch,
             sole.reshape(-1, 2, 3),
+            damping=model.dof_damping[self._servo_dofs],
             timestep=float(model.opt.timestep),
             torque_limit=float(model.actuator_forcerange[0, 1]),
             mass=float(model.body_subtreemass[self._torso]),
@@ -246,7 +287,7 @@ class BatchEvaluator:
         )
 
     def _record_width(self) -> int:
-        return len(self._leg_qvel) + sum(s.stop - s.start for s in self._sensors.values())
+        return len(self._servo_qvel) + sum(s.stop - s.start for s in self._sensors.values())
 
     def _physics_controls(self, ctrl: np.ndarray, episode: Episode, begin: int, end: int):
         """Per control step of [begin, end): the controls of its physics steps and their spec.
@@ -279,7 +320,7 @@ class BatchEvaluator:
         roots = states[0, self.n_sub - 1 :: self.n_sub, self._root]
         final = (states[:, -1].copy(), worker.data.qacc_warmstart[None].copy())
         record = np.concatenate(
-            [states[0][:, self._leg_qvel]] + [sensordata[0][:, s] for s in self._sensors.values()],
+            [states[0][:, self._servo_qvel]] + [sensordata[0][:, s] for s in self._sensors.values()],
             axis=1,
         )
         if not invalid_state(worker.data) and np.all(np.isfinite(states)):
@@ -340,4 +381,5 @@ class BatchEvaluator:
             out[..., 2].astype(int),
             int(sum(r[3] for r in results)),
             measured,
+            np.array([r[5] for r in results]).reshape(shape),
         )

@@ -1,10 +1,10 @@
 """Gait-quality measures of one trial, from what the robot's physics steps record.
 
 Both evaluation paths (the batched `mujoco.rollout` evaluator and the step-by-step policy
-scorer) collect, after every physics step up to the end of the trial or its fall, the 12
-leg joint velocities, the 12 leg servo torques (`actuatorfrc` sensors), the two sole touch
-forces and the two soles' velocities, then call `measures` on the arrays: the same inputs
-give the same numbers.
+scorer) collect, after every physics step up to the end of the trial (its time limit, fall
+or brown-out), the 20 servos' joint velocities and forces (`actuatorfrc` sensors; the legs'
+are the first 12, in `cpg.LEG_JOINTS` order), the two sole touch forces and the two soles'
+velocities, then call `measures` on the arrays: the same inputs give the same numbers.
 
 * cost of transport: positive mechanical work of the leg servos, Σ max(0, τ·q̇) Δt, divided
   by m·g·distance (NaN for a distance under 5 cm, where it means nothing);
@@ -17,30 +17,27 @@ give the same numbers.
   split into motor-driven (the servo's torque along the motion, τ·q̇ > 0: the servo itself
   pushes the joint on) and externally driven (τ·q̇ ≤ 0: the servo brakes or is idle, and
   gravity, contacts or the rest of the body turn the joint);
-* the leg servos' electrical power, W, and energy per metre, J/m, from the MX-28 datasheet
-  (docs/darwin_op_model.md#servos-dynamixel-mx-28): current I = 1.4 A · |τ| / 2.5 N·m
-  (stall current at stall torque), winding resistance R = 12 V / 1.4 A, each servo drawing
-  its copper loss I²R plus the mechanical power it delivers, τ·q̇, and never less than 0
-  (power a joint returns is not recovered). Summed over the 12 leg servos, averaged over
-  the trial (power) or integrated and divided by the distance (energy per metre).
+* the robot's electrical load (`cpg_suite.electrical`, docs/darwin_op_model.md#electrical-model),
+  from all 20 servos' forces and joint velocities: mean supply current, A, and its worst
+  1 s window; mean supply power, W (12 V × current), and supply energy per metre, J/m;
+  the most loaded servo's RMS torque over its stall torque, and its mean copper loss over
+  its stall copper loss (16.8 W; both 1 at a servo held stalled).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from cpg_suite import portable
+from cpg_suite import electrical, portable
 
-MX28_NO_LOAD_SPEED = 5.76  # rad/s at 12 V (ROBOTIS MX-28 e-Manual).
+MX28_NO_LOAD_SPEED = electrical.NO_LOAD_SPEED  # rad/s at 12 V: 55 rpm.
 GRAVITY = 9.81  # m/s²
 MIN_DISTANCE = 0.05  # m: below this, per-metre measures are undefined (NaN).
 _STANCE_FRACTION = 0.05  # of the weight: a sole carrying more is in stance.
 _FLIGHT_FRACTION = 0.01  # of the weight: both soles below this is flight.
 _LIMIT_FRACTION = 0.99  # of the torque limit: a servo at or above it is saturated.
-MX28_STALL_TORQUE = 2.5  # N·m at 12 V (ROBOTIS MX-28 e-Manual).
-MX28_STALL_CURRENT = 1.4  # A at 12 V (ROBOTIS MX-28 e-Manual).
-MX28_VOLTAGE = 12.0  # V: the supply of the datasheet figures.
-MX28_RESISTANCE = MX28_VOLTAGE / MX28_STALL_CURRENT  # Ω: winding resistance, 8.57.
+N_LEGS = 12  # the leg servos: the first 12 of the 20
+PEAK_WINDOW = electrical.SupplyLimit(window=1.0)  # the card's worst-window supply current
 
 FIELDS = (
     "cost_of_transport",
@@ -53,21 +50,11 @@ FIELDS = (
     "over_speed_external_share",
     "electrical_power_w",
     "energy_per_m",
+    "supply_current_a",
+    "supply_peak_1s_a",
+    "rms_torque_ratio",
+    "copper_loss_ratio",
 )
-
-
-def electrical_power(torque: np.ndarray, joint_velocity: np.ndarray) -> np.ndarray:
-    """Each servo's electrical power from the datasheet: max(0, I²R + τ·q̇), W.
-
-    Args:
-      torque: Servo torques, N·m (any shape).
-      joint_velocity: Joint velocities of the same shape, rad/s.
-
-    Returns:
-      The power of each servo, W, the shape of `torque`.
-    """
-    current = MX28_STALL_CURRENT * np.abs(torque) / MX28_STALL_TORQUE
-    return np.maximum(current * current * MX28_RESISTANCE + torque * joint_velocity, 0.0)
 
 
 def over_speed(torque: np.ndarray, joint_velocity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -87,11 +74,12 @@ def over_speed(torque: np.ndarray, joint_velocity: np.ndarray) -> tuple[np.ndarr
 
 
 def measures(
-    joint_velocity: np.ndarray,
-    torque: np.ndarray,
+    servo_velocity: np.ndarray,
+    servo_force: np.ndarray,
     touch: np.ndarray,
     sole_velocity: np.ndarray,
     *,
+    damping: np.ndarray,
     timestep: float,
     torque_limit: float,
     mass: float,
@@ -100,10 +88,12 @@ def measures(
     """The gait-quality measures of one trial.
 
     Args:
-      joint_velocity: (T, 12) leg joint velocities after each physics step, rad/s.
-      torque: (T, 12) leg servo torques, N·m.
+      servo_velocity: (T, 20) the servos' joint velocities after each physics step, rad/s,
+        in actuator order (the 12 legs' first).
+      servo_force: (T, 20) the servos' forces, N·m.
       touch: (T, 2) normal force on the (left, right) soles, N.
       sole_velocity: (T, 2, 3) sole velocities in the world frame, m/s.
+      damping: (20,) the servos' joint damping in this episode, N·m·s/rad.
       timestep: Physics step, s.
       torque_limit: The servos' torque limit in this episode, N·m.
       mass: The robot's mass in this episode, kg.
@@ -112,6 +102,7 @@ def measures(
     Returns:
       A dict with `FIELDS`.
     """
+    joint_velocity, torque = servo_velocity[:, :N_LEGS], servo_force[:, :N_LEGS]
     weight = mass * GRAVITY
     work = float(np.sum(np.maximum(torque * joint_velocity, 0.0)) * timestep)
     stance = touch > _STANCE_FRACTION * weight
@@ -119,21 +110,45 @@ def measures(
     slip = float(np.sum(np.where(stance, speed, 0.0)) * timestep)
     per_metre = distance >= MIN_DISTANCE
     motor, external = over_speed(torque, joint_velocity)
-    energy = float(np.sum(electrical_power(torque, joint_velocity)) * timestep)
     steps = len(torque)
+    load = _electrical(servo_velocity, servo_force, damping, timestep)
     return {
         "cost_of_transport": work / (weight * distance) if per_metre else float("nan"),
         "slip_per_m": slip / distance if per_metre else float("nan"),
         "torque_limit_share": float(np.mean(np.abs(torque) >= _LIMIT_FRACTION * torque_limit))
-        if len(torque)
+        if steps
         else 0.0,
         "flight_share": float(np.mean(np.all(touch < _FLIGHT_FRACTION * weight, axis=1)))
-        if len(touch)
+        if steps
         else 0.0,
         "peak_joint_speed": float(np.max(np.abs(joint_velocity), initial=0.0)),
         "over_speed_share": float(np.mean(motor | external)) if steps else 0.0,
         "over_speed_motor_share": float(np.mean(motor)) if steps else 0.0,
         "over_speed_external_share": float(np.mean(external)) if steps else 0.0,
-        "electrical_power_w": energy / (steps * timestep) if steps else 0.0,
-        "energy_per_m": energy / distance if per_metre else float("nan"),
+        "electrical_power_w": load["power"],
+        "energy_per_m": load["energy"] / distance if per_metre else float("nan"),
+        "supply_current_a": load["current"],
+        "supply_peak_1s_a": load["peak"],
+        "rms_torque_ratio": load["rms_torque"],
+        "copper_loss_ratio": load["copper"],
+    }
+
+
+def _electrical(velocity: np.ndarray, force: np.ndarray, damping, timestep: float) -> dict:
+    """The robot's electrical load over a trial (`cpg_suite.electrical`)."""
+    if not len(force):
+        return dict.fromkeys(("power", "energy", "current", "peak", "rms_torque", "copper"), 0.0)
+    current = electrical.supply_current(force, velocity, damping)
+    monitor = electrical.SupplyMonitor(PEAK_WINDOW, timestep, enforce=False)
+    monitor.update(current)
+    mean = monitor.mean()
+    rms = np.sqrt(np.mean(force * force, axis=0))
+    copper = np.mean(electrical.copper_loss(force, velocity, damping), axis=0)
+    return {
+        "power": mean * electrical.SUPPLY_VOLTAGE,
+        "energy": mean * electrical.SUPPLY_VOLTAGE * len(force) * timestep,
+        "current": mean,
+        "peak": monitor.worst,
+        "rms_torque": float(rms.max() / electrical.STALL_TORQUE),
+        "copper": float(copper.max() / electrical.STALL_COPPER_LOSS),
     }

@@ -37,6 +37,7 @@ import cpg_suite
 from cpg_suite import cli, cpg, evaluation, feedback, progress, protocol
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 from cpg_suite.evaluation import gait, ray_backend
+from cpg_suite.evaluation.open_loop import BROWNOUT, FALL
 from cpg_suite.evaluation import quality as gait_quality
 from cpg_suite.harness import runs
 
@@ -244,8 +245,8 @@ def policy_trial(
     Each control step: the task applies the action (and any push), the physics takes its
     substeps with `mj_step` (each one's quality sensors recorded, as `mujoco.rollout`
     records them), then `mj_step1` refreshes positions and velocities for the observation,
-    as dm_control's stepping does. A fall or a divergent state (MuJoCo's invalid-state
-    warnings) ends the trial.
+    as dm_control's stepping does, and the task adds the step's supply currents. A fall, a
+    brown-out or a divergent state (MuJoCo's invalid-state warnings) ends the trial.
 
     Args:
       policy: Maps the task's observation (an ordered dict of arrays) to a (12,) action.
@@ -254,13 +255,16 @@ def policy_trial(
       steps: Control steps.
 
     Returns:
-      `distance_m`, `lateral_m`, `fell`, `fall_step` (1-based or 0), `sim_steps` and the
-      gait-quality measures under `quality`.
+      `distance_m`, `lateral_m`, `fell` (failed: a fall or a brown-out), `fall_step`
+      (1-based or 0), `cause` (0, `open_loop.FALL` or `open_loop.BROWNOUT`), `sim_steps`
+      and the gait-quality measures under `quality`.
     """
     env, observation, n_sub = start_trial(policy, tier, seed)
     physics = env.physics
     start = physics.torso_position()
-    last, fall_step, records = step_policy(policy, env.task, physics, observation, steps, n_sub)
+    last, (fall_step, cause), records = step_policy(
+        policy, env.task, physics, observation, steps, n_sub
+    )
     last = start if last is None else last
     distance = float(last[0] - start[0])
     return {
@@ -268,6 +272,7 @@ def policy_trial(
         "lateral_m": float(last[1] - start[1]),
         "fell": bool(fall_step),
         "fall_step": fall_step,
+        "cause": cause,
         "sim_steps": len(records),
         "quality": _quality(records, physics, distance),
     }
@@ -300,8 +305,8 @@ def step_policy(policy, task, physics, observation, steps: int, n_sub: int, reco
         (default: the gait-quality inputs).
 
     Returns:
-      The torso position after the last valid control step (None if none), the 1-based
-      fall step (0: none) and the per-physics-step records.
+      The torso position after the last valid control step (None if none), the failure
+      as `(1-based control step or 0, cause)`, and the per-physics-step records.
     """
     record = record or _record
     model, data = physics.model.ptr, physics.data.ptr
@@ -309,27 +314,26 @@ def step_policy(policy, task, physics, observation, steps: int, n_sub: int, reco
     for t in range(steps):
         task.before_step(policy(observation), physics)
         clear_invalid_state_warnings(data)
-        for _ in range(n_sub):
-            mujoco.mj_step(model, data)
-            records.append(record(physics))
+        records += physics.substeps(n_sub, record=record)
         if invalid_state(data):
-            return last, t + 1, records
+            return last, (t + 1, FALL), records
         mujoco.mj_step1(model, data)  # positions and velocities for the observation
         task.after_step(physics)
         last = physics.torso_position()
         observation = task.get_observation(physics)
-        if physics.fallen():
-            return last, t + 1, records
-    return last, 0, records
+        if task.get_termination(physics) is not None:
+            return last, (t + 1, FALL if task.failure == "fall" else BROWNOUT), records
+    return last, (0, 0), records
 
 
 def _quality(records: list, physics, distance: float) -> dict:
-    columns = [np.array(c) for c in zip(*records)] if records else [np.zeros((0, 12))] * 4
+    columns = [np.array(c) for c in zip(*records)] if records else [np.zeros((0, 20))] * 4
     return gait_quality.measures(
         columns[0],
         columns[1],
         columns[2].reshape(-1, 2),
         columns[3].reshape(-1, 2, 3),
+        damping=physics.servo_damping(),
         timestep=float(physics.model.opt.timestep),
         torque_limit=physics.torque_limit(),
         mass=physics.total_mass(),
@@ -339,8 +343,8 @@ def _quality(records: list, physics, distance: float) -> dict:
 
 def _record(physics) -> tuple:
     return (
-        physics.leg_joint_velocities(),
-        physics.leg_torques(),
+        physics.servo_velocities(),
+        physics.servo_forces(),
         physics.foot_touch(),
         physics.sole_velocities(),
     )

@@ -1,0 +1,217 @@
+"""The DARwIn-OP's servos and supply as electrical loads (docs/darwin_op_model.md#electrical-model).
+
+Each servo is a Dynamixel MX-28: a DC motor behind a 193:1 gearbox, driven by a PWM bridge
+from the robot's supply. In the MJCF model (`xml/darwin.xml`) the position actuator's force
+f, clamped at the stall torque, is the torque the commanded voltage would give at standstill,
+and the joint damping b (stall torque / no-load speed) is the motor's back-EMF braking. So,
+per servo and physics step, with the datasheet's line at 12 V:
+
+* commanded voltage   V_cmd = f·R / k_t                      (f = ±2.5 N·m ⇒ V_cmd = ±12 V)
+* motor current       I = (f − b·q̇) / k_t                     (the joint's net motor torque / k_t)
+* input power         P = V_cmd·I = I²R + k_e·q̇·I,  k_e = b·R / k_t
+* copper loss         I²R;  the motor's mechanical power k_e·q̇·I, of which the joint gets
+                      k_t·I·q̇ = (f − b·q̇)·q̇ and the gearbox the rest (k_t/k_e = 0.86)
+* supply current      max(0, P) / V_supply + standby current
+
+The bridge does not return power to the battery: a servo that brakes draws its standby
+current and no less. The robot's supply current is the sum over all 20 servos (the arms and
+head hold their pose and draw too), plus the CM-730 board and the on-board PC.
+
+The supply's limit (`SupplyLimit`): the LiPo's continuous rating and the CM-730's fuse are
+10 A. When the supply current averaged over the last `window` seconds exceeds it, the servos
+brown out and the episode ends like a fall. Before the episode starts, the robot stood
+powered and idle: the window's part before t = 0 counts `IDLE_CURRENT`.
+
+Every path (the CPU task, the batched evaluators, the vector env, the scorer, the MJX env)
+computes the same per-step currents with `supply_current` and the same window with
+`SupplyMonitor` (`SupplyMonitor.update` accumulates the currents strictly in order, so a
+trial's verdict does not depend on how its steps are chunked).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+# Dynamixel MX-28 at 12 V (ROBOTIS e-Manual, MX-28; docs/darwin_op_model.md#servos).
+SUPPLY_VOLTAGE = 12.0  # V: the datasheet's voltage, the robot's supply (a choice: the LiPo is 11.1 V nominal)
+STALL_TORQUE = 2.5  # N·m
+STALL_CURRENT = 1.4  # A
+NO_LOAD_SPEED = 55.0 * 2.0 * math.pi / 60.0  # rad/s: 55 rpm (5.76 rad/s)
+STANDBY_CURRENT = 0.1  # A per servo, output off
+TORQUE_CONSTANT = STALL_TORQUE / STALL_CURRENT  # k_t, N·m/A: 1.786
+RESISTANCE = SUPPLY_VOLTAGE / STALL_CURRENT  # R, Ω: all of the stall voltage across the winding
+STALL_COPPER_LOSS = STALL_CURRENT**2 * RESISTANCE  # W: 16.8, the most a servo draws
+N_SERVOS = 20
+
+# The rest of the robot (ROBOTIS e-Manual, ROBOTIS OP: specifications and CM-730).
+BOARD_CURRENT = 0.15  # A: the CM-730 sub-controller
+PC_POWER = 6.0  # W: the on-board PC draws 5-7 W; the middle (a choice)
+IDLE_CURRENT = N_SERVOS * STANDBY_CURRENT + BOARD_CURRENT + PC_POWER / SUPPLY_VOLTAGE  # A: 2.65
+
+# The supply's limit (ROBOTIS OP: 11.1 V 1000 mAh 10C LiPo, 10 A continuous; 10 A fuse).
+SUPPLY_LIMIT = 10.0  # A
+SUPPLY_WINDOW = 1.0  # s: the averaging window (a choice; results/protocol shows 0.25 s and ∞)
+
+# Why a trial ended early (the card's failure causes).
+CAUSES = ("fall", "brownout")
+
+
+@dataclasses.dataclass(frozen=True)
+class SupplyLimit:
+    """The supply's limit: mean current over the last `window` seconds above `current`.
+
+    Attributes:
+      current: The limit, A.
+      window: The averaging window, s; `math.inf` averages over the whole trial so far.
+    """
+
+    current: float = SUPPLY_LIMIT
+    window: float = SUPPLY_WINDOW
+
+    def __post_init__(self):
+        if not (math.isfinite(self.current) and self.current > 0):
+            raise ValueError(f"supply limit must be a positive number of A, got {self.current!r}")
+        if not (self.window > 0):  # inf allowed: the whole trial
+            raise ValueError(f"supply window must be > 0 s (or inf), got {self.window!r}")
+
+    def window_steps(self, timestep: float) -> int | None:
+        """The window in physics steps of `timestep` s (None: the whole trial).
+
+        Raises:
+          ValueError: If the window is shorter than one physics step.
+        """
+        if math.isinf(self.window):
+            return None
+        steps = int(round(self.window / timestep))
+        if steps < 1:
+            raise ValueError(f"supply window {self.window} s is under one physics step")
+        return steps
+
+
+def motor_current(force, velocity, damping):
+    """The motor's current, A: its net torque at the joint over k_t.
+
+    Args:
+      force: Actuator forces f (the commanded torque), N·m (any shape).
+      velocity: Joint velocities q̇ of the same shape, rad/s.
+      damping: The joints' damping b (back-EMF braking), N·m·s/rad, broadcastable.
+
+    Returns:
+      I = (f − b·q̇) / k_t, the shape of `force`.
+    """
+    return (force - damping * velocity) / TORQUE_CONSTANT
+
+
+def input_power(force, velocity, damping):
+    """Electrical power into each motor at its commanded voltage, W (negative: braking).
+
+    Args: as for `motor_current`.
+
+    Returns:
+      P = V_cmd·I = (f·R/k_t)·(f − b·q̇)/k_t, which equals I²R + k_e·q̇·I.
+    """
+    return (force * (RESISTANCE / TORQUE_CONSTANT)) * motor_current(force, velocity, damping)
+
+
+def copper_loss(force, velocity, damping):
+    """The winding's resistive loss I²R, W."""
+    current = motor_current(force, velocity, damping)
+    return current * current * RESISTANCE
+
+
+def motor_power(force, velocity, damping):
+    """The motor's mechanical power k_e·q̇·I, W (k_e = b·R/k_t; input power − copper loss)."""
+    return (damping * (RESISTANCE / TORQUE_CONSTANT)) * velocity * motor_current(
+        force, velocity, damping
+    )
+
+
+def supply_current(force, velocity, damping, xp=np):
+    """The robot's supply current, A: all servos (no regeneration) plus the idle draw.
+
+    Args:
+      force: (..., N_SERVOS) actuator forces, N·m, in the model's actuator order.
+      velocity: (..., N_SERVOS) the actuated joints' velocities, rad/s.
+      damping: (N_SERVOS,) or broadcastable joint damping, N·m·s/rad.
+      xp: The array module: `numpy`, or `jax.numpy` for traced arrays (`cpg_suite.mjx`).
+
+    Returns:
+      (...,) Σ max(0, P) / V_supply + `IDLE_CURRENT`.
+    """
+    power = xp.maximum(input_power(force, velocity, damping), 0.0)
+    return xp.sum(power, axis=-1) / SUPPLY_VOLTAGE + IDLE_CURRENT
+
+
+class SupplyMonitor:
+    """One trial's supply current, step by step: its running total and the limit's verdict.
+
+    The running total T_k = T_{k−1} + i_k is accumulated strictly in order (`np.cumsum` from
+    the carried total), so feeding the steps one control step or one segment at a time gives
+    the same numbers. The mean over the window ending at step k is (T_k − T_{k−w}) / w, with
+    T_j = j·`IDLE_CURRENT` for j < 0 (the idle robot before the start); over the whole trial
+    it is T_k / k.
+    """
+
+    def __init__(self, limit: SupplyLimit, timestep: float, enforce: bool = True):
+        """Args:
+          limit: The supply's limit and window.
+          timestep: The physics step, s.
+          enforce: Whether the limit browns the servos out (False: measure only).
+        """
+        self.limit, self.enforce = limit, bool(enforce)
+        self.timestep = float(timestep)
+        self.window = limit.window_steps(self.timestep)
+        self.reset()
+
+    def reset(self) -> None:
+        """Starts a new trial (t = 0)."""
+        self.steps = 0
+        self.total = 0.0  # T_k, A·steps
+        self.worst = -math.inf  # the largest window mean so far, A
+        # T_{k+1−w}, …, T_k, oldest first; before the start, the idle robot's.
+        w = self.window or 0
+        self._history = np.arange(1 - w, 1, dtype=np.float64) * IDLE_CURRENT
+        self.browned_out = 0  # 1-based physics step of the brown-out, 0: none
+
+    def update(self, currents: np.ndarray) -> int:
+        """Adds the next physics steps' supply currents.
+
+        Args:
+          currents: (n,) supply currents of the next n physics steps, A.
+
+        Returns:
+          The 1-based index (among these n) of the first step whose window mean exceeds the
+          limit, or 0. After a brown-out the monitor keeps measuring but reports no other.
+        """
+        currents = np.asarray(currents, dtype=np.float64)
+        n = len(currents)
+        if n == 0:
+            return 0
+        totals = np.cumsum(np.concatenate(([self.total], currents)))[1:]
+        means = self._means(totals)
+        self.worst = max(self.worst, float(means.max()))
+        first = 0
+        if self.enforce and not self.browned_out:
+            over = np.flatnonzero(means > self.limit.current)
+            if over.size:
+                first = int(over[0]) + 1
+                self.browned_out = self.steps + first
+        self.steps += n
+        self.total = float(totals[-1])
+        return first
+
+    def _means(self, totals: np.ndarray) -> np.ndarray:
+        """The window means ending at each new step, and the history moved on."""
+        if self.window is None:
+            k = np.arange(self.steps + 1, self.steps + len(totals) + 1, dtype=np.float64)
+            return totals / k
+        history = np.concatenate((self._history, totals))
+        self._history = history[len(totals) :]
+        return (totals - history[: len(totals)]) / self.window
+
+    def mean(self) -> float:
+        """The trial's mean supply current so far, A (0 before the first step)."""
+        return self.total / self.steps if self.steps else 0.0
