@@ -165,7 +165,7 @@ def walk(
     init_noise: float = INIT_NOISE,
     servo_gain: float | None = None,
     torque_limit: float | None = None,
-    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
+    supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Returns the walking task: reward = forward torso displacement per step (m).
@@ -200,7 +200,7 @@ def balance(
     init_noise: float = INIT_NOISE,
     servo_gain: float | None = None,
     torque_limit: float | None = None,
-    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
+    supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Returns the balance task: reward = −(COP distance to the stance sole centre), m.
@@ -222,7 +222,7 @@ def walk_randomized(
     random=None,
     posture: np.ndarray | None = None,
     randomization: perturbations.Randomization | None = None,
-    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
+    supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Walking with the physical parameters drawn per episode (the randomized test tier).
@@ -253,7 +253,7 @@ def walk_push(
     random=None,
     posture: np.ndarray | None = None,
     pushes: perturbations.Pushes | None = None,
-    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
+    supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Walking with random horizontal pushes on the torso (the push test tier).
@@ -275,7 +275,7 @@ def walk_rough(
     random=None,
     posture: np.ndarray | None = None,
     terrain: perturbations.Terrain | None = None,
-    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
+    supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Walking on uneven ground: tiles raised at random per episode (the rough test tier).
@@ -318,7 +318,7 @@ def _environment(
     servo,
     environment_kwargs,
     perturbation: dict | None = None,
-    supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
+    supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
 ):
     perturbation = perturbation or {}
     physics = Physics.from_xml_string(*get_model_and_assets(perturbation.get("terrain")))
@@ -392,7 +392,10 @@ class Physics(mujoco.Physics):
         # The joint each servo turns, in actuator order (`cpg_suite.electrical`).
         self._servo_dofs = model.jnt_dofadr[model.actuator_trnid[:, 0]].copy()
         names = [model.id2name(int(i), "actuator") for i in range(model.nu)]
-        if names != [*cpg.LEG_JOINTS, *ARM_JOINTS] or model.opt.integrator == mj.mjtIntegrator.mjINT_RK4:
+        if (
+            names != [*cpg.LEG_JOINTS, *ARM_JOINTS]
+            or model.opt.integrator == mj.mjtIntegrator.mjINT_RK4
+        ):
             raise ValueError("expects the legs' then the arms' servos and a one-stage integrator")
         self._step_force = np.zeros((0, model.nu))  # per physics step of the last `substeps`
         self._step_qvel = np.zeros((0, model.nv))
@@ -814,7 +817,7 @@ class CPGTask(base.Task):
         randomization: perturbations.Randomization | None = None,
         pushes: perturbations.Pushes | None = None,
         terrain: perturbations.Terrain | None = None,
-        supply: electrical.SupplyLimit | None = electrical.SupplyLimit(),
+        supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
     ):
         """Initializes the task.
 

@@ -36,7 +36,9 @@ import math
 import numpy as np
 
 # Dynamixel MX-28 at 12 V (ROBOTIS e-Manual, MX-28; docs/darwin_op_model.md#servos).
-SUPPLY_VOLTAGE = 12.0  # V: the datasheet's voltage, the robot's supply (a choice: the LiPo is 11.1 V nominal)
+SUPPLY_VOLTAGE = (
+    12.0  # V: the datasheet's voltage, the robot's supply (a choice: the LiPo is 11.1 V nominal)
+)
 STALL_TORQUE = 2.5  # N·m
 STALL_CURRENT = 1.4  # A
 NO_LOAD_SPEED = 55.0 * 2.0 * math.pi / 60.0  # rad/s: 55 rpm (5.76 rad/s)
@@ -91,6 +93,9 @@ class SupplyLimit:
         return steps
 
 
+DEFAULT_SUPPLY = SupplyLimit()  # the DARwIn-OP tasks' limit: 10 A over the last second
+
+
 def motor_current(force, velocity, damping):
     """The motor's current, A: its net torque at the joint over k_t.
 
@@ -124,8 +129,10 @@ def copper_loss(force, velocity, damping):
 
 def motor_power(force, velocity, damping):
     """The motor's mechanical power k_e·q̇·I, W (k_e = b·R/k_t; input power − copper loss)."""
-    return (damping * (RESISTANCE / TORQUE_CONSTANT)) * velocity * motor_current(
-        force, velocity, damping
+    return (
+        (damping * (RESISTANCE / TORQUE_CONSTANT))
+        * velocity
+        * motor_current(force, velocity, damping)
     )
 
 
@@ -157,9 +164,9 @@ class SupplyMonitor:
 
     def __init__(self, limit: SupplyLimit, timestep: float, enforce: bool = True):
         """Args:
-          limit: The supply's limit and window.
-          timestep: The physics step, s.
-          enforce: Whether the limit browns the servos out (False: measure only).
+        limit: The supply's limit and window.
+        timestep: The physics step, s.
+        enforce: Whether the limit browns the servos out (False: measure only).
         """
         self.limit, self.enforce = limit, bool(enforce)
         self.timestep = float(timestep)

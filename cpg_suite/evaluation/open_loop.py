@@ -242,7 +242,9 @@ class BatchEvaluator:
 
     def _monitor(self, episode: Episode) -> electrical.SupplyMonitor:
         limit = self.supply or electrical.SupplyLimit()
-        return electrical.SupplyMonitor(limit, float(episode.model.opt.timestep), self.supply is not None)
+        return electrical.SupplyMonitor(
+            limit, float(episode.model.opt.timestep), self.supply is not None
+        )
 
     def _failure(self, roots, diverged, supply, record, episode) -> tuple[int, int] | None:
         """The segment's first failure: (its 1-based control step in the segment, cause).
@@ -320,7 +322,8 @@ class BatchEvaluator:
         roots = states[0, self.n_sub - 1 :: self.n_sub, self._root]
         final = (states[:, -1].copy(), worker.data.qacc_warmstart[None].copy())
         record = np.concatenate(
-            [states[0][:, self._servo_qvel]] + [sensordata[0][:, s] for s in self._sensors.values()],
+            [states[0][:, self._servo_qvel]]
+            + [sensordata[0][:, s] for s in self._sensors.values()],
             axis=1,
         )
         if not invalid_state(worker.data) and np.all(np.isfinite(states)):

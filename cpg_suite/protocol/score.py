@@ -37,8 +37,8 @@ import cpg_suite
 from cpg_suite import cli, cpg, evaluation, feedback, progress, protocol
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 from cpg_suite.evaluation import gait, ray_backend
-from cpg_suite.evaluation.open_loop import BROWNOUT, FALL
 from cpg_suite.evaluation import quality as gait_quality
+from cpg_suite.evaluation.open_loop import BROWNOUT, FALL
 from cpg_suite.harness import runs
 
 _BOOTSTRAP_RESAMPLES = 2000
