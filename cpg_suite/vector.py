@@ -20,10 +20,12 @@ observation, `mj_step` takes the others, then `mj_step1` for the observation), s
 Gymnasium environment `gymnasium.make("cpg_suite/<task_id>-v0")` reset with the same seed,
 bit for bit, for any thread count (`tests/test_vector_env.py`).
 
-Episodes end as in the single environment: a fall terminates, the time limit (1000
-control steps) truncates, and at the limit a fallen robot is truncated too (dm_control
-gives discount 1 there). Where dm_control would raise `PhysicsError` (an invalid physics
-state), the sub-environment terminates instead and `infos["physics_error"]` flags it.
+Episodes end as in the single environment: a fall or a brown-out of the supply
+(`cpg_suite.electrical`; `infos["brownout"]` flags those that were not falls too)
+terminates, the time limit (1000 control steps) truncates, and at the limit a fallen
+robot is truncated too (dm_control gives discount 1 there). Where dm_control would raise
+`PhysicsError` (an invalid physics state), the sub-environment terminates instead and
+`infos["physics_error"]` flags it.
 Autoreset follows Gymnasium's modes: next-step (the default, as `SyncVectorEnv`) or
 same-step (the final observation in `infos["final_obs"]`).
 """
@@ -184,6 +186,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         terminated = np.zeros(self.num_envs, dtype=bool)
         truncated = np.zeros(self.num_envs, dtype=bool)
         errors = np.zeros(self.num_envs, dtype=bool)
+        browned = np.zeros(self.num_envs, dtype=bool)
         active = np.flatnonzero(stepping)
         if len(active):
             errors[active] = self._physics_step(active, actions)
@@ -191,7 +194,10 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             rewards[active] = x - self._x[active]
             self._x[active] = x
             self._steps[active] += 1
+            brownout = np.array([self.envs[i].task.supply.browned_out > 0 for i in active])
             fallen = darwin.has_fallen(self._qpos[active, self._root_slice]) | errors[active]
+            browned[active] = brownout & ~fallen
+            fallen |= brownout
             at_limit = (
                 self._steps[active] >= self.step_limit
                 if self.step_limit is not None
@@ -202,6 +208,8 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self._done = terminated | truncated
         observations = self._observations()
         infos = {"physics_error": errors, "_physics_error": errors} if errors.any() else {}
+        if browned.any():
+            infos.update(brownout=browned, _brownout=browned)
         if self.autoreset_mode == AutoresetMode.SAME_STEP and self._done.any():
             infos.update(self._same_step_reset(observations))
             observations = self._observations()
@@ -268,7 +276,8 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
     def _step_block(self, work: list) -> list[bool]:
         """`control.Environment.step` for some sub-environments, in one thread: the servo
         targets and push, the substeps (`mj_step2` then `mj_step`, the GIL released), the
-        invalid-state test, `mj_step1`, and a copy of the state the observations read."""
+        invalid-state test, `mj_step1`, the supply currents into the task's monitor, and a
+        copy of the state the observations read."""
         flags = []
         for i, targets, push in work:
             model, data = self._models[i], self._datas[i]
@@ -276,12 +285,12 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             if push is not None:
                 data.xfrc_applied[self._torso, :3] = push
             base.clear_invalid_state_warnings(data)
-            mujoco.mj_step2(model, data)
-            if self.n_sub > 1:
-                mujoco.mj_step(model, data, nstep=self.n_sub - 1)
+            env = self.envs[i]
+            env.physics.substeps(self.n_sub, finish=True)  # servo forces recorded
             bad = base.invalid_state(data)
             if not bad:
                 mujoco.mj_step1(model, data)
+                env.task.supply.update(env.physics.supply_currents())
             self._read(i)
             flags.append(bad)
         return flags

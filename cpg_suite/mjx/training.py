@@ -74,8 +74,9 @@ def brax_on_this_jax() -> Iterator[None]:
 class BraxWalkEnv(brax_base.Env):
     """A `WalkEnv` behind Brax's `Env` interface (one environment; Brax vmaps it).
 
-    `pipeline_state` is the `WalkEnv.State`; `done` is 1 on a fall or a non-finite state
-    only (the time limit belongs to `EpisodeWrapper`); `metrics["fell"]` is the fall flag.
+    `pipeline_state` is the `WalkEnv.State`; `done` is 1 on a fall, a brown-out or a
+    non-finite state only (the time limit belongs to `EpisodeWrapper`); `metrics["fell"]`
+    is that early end, `metrics["brownout"]` the brown-out alone.
     """
 
     def __init__(self, env: WalkEnv):
@@ -92,7 +93,7 @@ class BraxWalkEnv(brax_base.Env):
             obs=state.obs,
             reward=state.reward,
             done=state.fell,
-            metrics={"fell": state.fell},
+            metrics={"fell": state.fell, "brownout": state.brownout},
         )
 
     def step(self, state: brax_base.State, action: jax.Array) -> brax_base.State:
@@ -103,7 +104,7 @@ class BraxWalkEnv(brax_base.Env):
             obs=walk.obs,
             reward=walk.reward,
             done=walk.fell,
-            metrics={**state.metrics, "fell": walk.fell},
+            metrics={**state.metrics, "fell": walk.fell, "brownout": walk.brownout},
         )
 
     @property

@@ -9,7 +9,9 @@
 * action: `joints`, 12 leg targets in [−1, 1] scaled onto the joint ranges, or `cpg`, the
   CPG-modulating space of `cpg_suite.residual` (`cpg_suite.mjx.modulated`);
 * reward: the torso's forward (x) displacement during the control step, m;
-* fall test `darwin.has_fallen` (termination, discount 0), time limit of
+* fall test `darwin.has_fallen` and the supply's brown-out (`cpg_suite.electrical`: the
+  mean supply current over the last second above 10 A, from every physics step's servo
+  forces and joint velocities; termination, discount 0), time limit of
   `darwin.DEFAULT_TIME_LIMIT` (1000 control steps of `darwin.CONTROL_TIMESTEP` = 8 physics
   steps of 2 ms);
 * reset: the standing posture plus U(−noise, noise) per leg joint, the lowest sole corner
@@ -41,7 +43,7 @@ import mujoco
 import numpy as np
 from mujoco import mjx
 
-from cpg_suite import cpg, darwin, perturbations, residual
+from cpg_suite import cpg, darwin, electrical, perturbations, residual
 from cpg_suite.mjx import modulated, physics, setconst
 
 TASKS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push")
@@ -82,8 +84,12 @@ class State(NamedTuple):
       data: The MJX physics state.
       obs: The observation (`observation_size`,).
       reward: Reward of the last control step, m.
-      done: 1.0 when the episode has ended (fall or time limit), else 0.0.
-      fell: 1.0 when the last step ended in a fall (discount 0).
+      done: 1.0 when the episode has ended (fall, brown-out or time limit), else 0.0.
+      fell: 1.0 when the last step ended the episode early, by a fall or a brown-out
+        (discount 0).
+      brownout: 1.0 when that was a brown-out of the supply (and not a fall).
+      supply: The supply current's running total, A·steps, and the ring of the last
+        window's totals (`electrical.SupplyMonitor`'s T_k).
       step: Control steps taken.
       params: The episode's physical parameters.
       invweights: The episode model's `body_invweight0` and `dof_invweight0`, computed
@@ -97,6 +103,8 @@ class State(NamedTuple):
     reward: jax.Array
     done: jax.Array
     fell: jax.Array
+    brownout: jax.Array
+    supply: tuple[jax.Array, jax.Array]
     step: jax.Array
     params: EpisodeParams
     invweights: tuple[jax.Array, jax.Array]
@@ -118,6 +126,7 @@ class WalkEnv:
         config: cpg.CPGConfig | None = None,
         solver_iterations: tuple[int, int] | None = None,
         contacts: str = "model",
+        supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
     ):
         """Builds the MJX model; call under `jax.enable_x64(True)` for float64 physics.
 
@@ -175,6 +184,10 @@ class WalkEnv:
         self.model = mjx.put_model(self.mj_model)
         self._layout(self.mj_model)
         self.n_substeps = darwin.physics_steps_per_control_step(self.mj_model)
+        self.supply = supply
+        limit = supply or electrical.DEFAULT_SUPPLY
+        self._window = limit.window_steps(float(self.mj_model.opt.timestep))
+        self._limit = limit.current
         self.nominal_amplitudes = cpg.amplitudes_from("hand_tuned")
         self._data_shapes = None  # `mjx.step`'s output types, found on first use
 
@@ -196,6 +209,7 @@ class WalkEnv:
         self._feet = np.array([m.geom(n).id for n in darwin.FOOT_GEOMS])
         self._ground = np.array([m.geom(n).id for n in darwin.GROUND_GEOMS])
         self._hinge_dofs = m.jnt_dofadr[m.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]
+        self._servo_dofs = m.jnt_dofadr[m.actuator_trnid[:, 0]]
 
         def sensor(name):
             i = m.sensor(name).id
@@ -351,6 +365,8 @@ class WalkEnv:
             reward=zero,
             done=zero,
             fell=zero,
+            brownout=zero,
+            supply=self.initial_supply(),
             step=jnp.zeros((), jnp.int32),
             params=params,
             invweights=(model.body_invweight0, model.dof_invweight0),
@@ -413,24 +429,58 @@ class WalkEnv:
         data = data.replace(ctrl=ctrl, xfrc_applied=xfrc)
         x_before = data.qpos[self._root_qpos]
 
-        def physics_step(d, _):
-            return physics.step(model, d), None
+        def physics_step(carry, j):
+            d, supply = carry
+            d = physics.step(model, d)
+            return (d, self._add_supply(model, d, supply, state.step * self.n_substeps + j)), None
 
-        data, _ = jax.lax.scan(physics_step, data, None, length=self.n_substeps)
+        supply = (*state.supply, jnp.zeros(()))  # total, ring, crossed in this step
+        (data, supply), _ = jax.lax.scan(physics_step, (data, supply), jnp.arange(self.n_substeps))
         root = data.qpos[self._root_qpos : self._root_qpos + 7]
         invalid = ~(jnp.all(jnp.isfinite(data.qpos)) & jnp.all(jnp.isfinite(data.qvel)))
         fell = darwin.has_fallen(root, jnp) | invalid
+        brownout = (supply[2] > 0) & ~fell if self.supply is not None else jnp.zeros((), bool)
         step = state.step + 1
-        done = fell | (step >= EPISODE_STEPS)
+        done = fell | brownout | (step >= EPISODE_STEPS)
         return state._replace(
             data=data,
             obs=self._observation(data, row),
             reward=root[0] - x_before,
             done=done.astype(root.dtype),
-            fell=fell.astype(root.dtype),
+            fell=(fell | brownout).astype(root.dtype),
+            brownout=brownout.astype(root.dtype),
+            supply=supply[:2],
             step=step,
             cpg=row,
         )
+
+    def initial_supply(self) -> tuple[jax.Array, jax.Array]:
+        """The supply's running total at t = 0 and its ring: the idle robot before the start."""
+        w = self._window or 1
+        ring = jnp.asarray(np.arange(1 - w, 1, dtype=np.float64) * electrical.IDLE_CURRENT)
+        return jnp.zeros(()), ring
+
+    def _add_supply(self, model, d, supply, k):
+        """One physics step's supply current into the running total (`SupplyMonitor`).
+
+        Returns:
+          `(total, ring, crossed)`: crossed is 1 once a window mean has exceeded the limit
+          during this control step.
+        """
+        total, ring, crossed = supply
+        dofs = self._servo_dofs
+        current = electrical.supply_current(
+            d.actuator_force, d.qvel[dofs], model.dof_damping[dofs], xp=jnp
+        )
+        total = total + current
+        if self._window is None:
+            mean = total / (k + 1)
+        else:
+            position = k % self._window
+            mean = (total - ring[position]) / self._window
+            ring = ring.at[position].set(total)
+        crossed = jnp.maximum(crossed, (mean > self._limit).astype(total.dtype))
+        return total, ring, crossed
 
     def observation_dict(self, data: mjx.Data) -> dict[str, jax.Array]:
         """`CPGTask.get_observation` of a state reached by `reset` or `step`.
@@ -487,6 +537,8 @@ class WalkEnv:
             reward=zero,
             done=zero,
             fell=zero,
+            brownout=zero,
+            supply=self.initial_supply(),
             step=jnp.asarray(step, jnp.int32),
             params=self.nominal_params(),
             invweights=(self.model.body_invweight0, self.model.dof_invweight0),
