@@ -5,20 +5,25 @@ import math
 import numpy as np
 import pytest
 
+from cpg_suite import electrical
 from cpg_suite.evaluation import quality
 
 TIMESTEP = 0.002  # s
 MASS = 2.0  # kg
 WEIGHT = MASS * quality.GRAVITY
+DAMPING = 0.43  # N·m·s/rad: the model's back-EMF braking
 
 
 def _trial(joint_velocity, torque, distance=1.0):
+    """The 12 legs' velocities and torques; the arms and head idle."""
     steps = len(joint_velocity)
+    idle = np.zeros((steps, 8))
     return quality.measures(
-        np.asarray(joint_velocity, float),
-        np.asarray(torque, float),
+        np.hstack([np.asarray(joint_velocity, float).reshape(steps, -1), idle]),
+        np.hstack([np.asarray(torque, float).reshape(steps, -1), idle]),
         np.full((steps, 2), WEIGHT),  # both soles in stance
         np.zeros((steps, 2, 3)),
+        damping=np.full(20, DAMPING),
         timestep=TIMESTEP,
         torque_limit=2.5,
         mass=MASS,
@@ -31,38 +36,39 @@ def test_over_speed_is_split_by_the_servos_drive():
     slow = quality.MX28_NO_LOAD_SPEED - 0.1
     # Four servo-steps: fast with the servo along the motion, fast against it, fast with no
     # torque (idle: external), slow with the servo along it.
-    velocity = [[fast, -fast], [fast, slow]]
-    torque = [[1.0, 1.0], [0.0, 1.0]]
+    # The other ten leg servos stand still: 24 servo-steps in all.
+    velocity = [[fast, -fast] + [0.0] * 10, [fast, slow] + [0.0] * 10]
+    torque = [[1.0, 1.0] + [0.0] * 10, [0.0, 1.0] + [0.0] * 10]
     m = _trial(velocity, torque)
-    assert m["over_speed_motor_share"] == 0.25
-    assert m["over_speed_external_share"] == 0.5
-    assert m["over_speed_share"] == 0.75
+    assert m["over_speed_motor_share"] == 1 / 24
+    assert m["over_speed_external_share"] == 2 / 24
+    assert m["over_speed_share"] == 3 / 24
     assert m["peak_joint_speed"] == pytest.approx(fast)
 
 
-def test_electrical_power_at_stall_is_the_datasheet_input():
-    # At stall (2.5 N·m, not moving) a servo draws its stall current at 12 V: 16.8 W.
-    power = quality.electrical_power(np.array([2.5, -2.5]), np.zeros(2))
-    np.testing.assert_allclose(power, 12.0 * 1.4)
+def _legs(value):
+    return np.full((10, 12), value)
 
 
-def test_electrical_power_adds_mechanical_power_and_recovers_nothing():
-    torque, velocity = np.array([1.0, 1.0, 0.1]), np.array([2.0, -2.0, -5.0])
-    copper = (1.4 * np.abs(torque) / 2.5) ** 2 * (12.0 / 1.4)
-    expected = np.maximum(copper + torque * velocity, 0.0)
-    np.testing.assert_allclose(quality.electrical_power(torque, velocity), expected)
-    assert expected[2] == 0.0  # a back-driven joint returning more than the copper loss
+def test_power_is_the_robots_supply_at_12_v():
+    # Twelve stalled leg servos (2.5 N·m, still) draw 1.4 A each, plus the idle robot.
+    m = _trial(_legs(0.0), _legs(2.5), distance=0.2)
+    current = 12 * 1.4 + electrical.IDLE_CURRENT
+    assert m["supply_current_a"] == pytest.approx(current)
+    assert m["supply_peak_1s_a"] == pytest.approx(
+        (10 * current + 490 * electrical.IDLE_CURRENT) / 500
+    )  # the 1 s window holds 10 stalled steps after the idle robot's
+    assert m["electrical_power_w"] == pytest.approx(12.0 * current)
+    assert m["energy_per_m"] == pytest.approx(12.0 * current * 10 * TIMESTEP / 0.2)
+    assert m["rms_torque_ratio"] == pytest.approx(1.0)
+    assert m["copper_loss_ratio"] == pytest.approx(1.0)
+    assert math.isnan(_trial(_legs(0.0), _legs(2.5), distance=0.01)["energy_per_m"])
 
 
-def test_power_and_energy_per_metre():
-    steps = 10
-    torque = np.full((steps, 12), 1.0)
-    velocity = np.full((steps, 12), 0.5)
-    per_servo = (1.4 / 2.5) ** 2 * (12.0 / 1.4) + 0.5
-    m = _trial(velocity, torque, distance=0.2)
-    assert m["electrical_power_w"] == pytest.approx(12 * per_servo)
-    assert m["energy_per_m"] == pytest.approx(12 * per_servo * steps * TIMESTEP / 0.2)
-    assert math.isnan(_trial(velocity, torque, distance=0.01)["energy_per_m"])
+def test_servos_at_their_no_load_speed_draw_standby_only():
+    m = _trial(_legs(2.5 / DAMPING), _legs(2.5))
+    assert m["supply_current_a"] == pytest.approx(electrical.IDLE_CURRENT)
+    assert m["copper_loss_ratio"] == pytest.approx(0.0, abs=1e-20)
 
 
 def test_every_field_is_measured():

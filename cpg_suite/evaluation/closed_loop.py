@@ -86,19 +86,21 @@ class FeedbackEvaluator:
         steps: int = 1000,
         threads: int = 1,
         config: cpg.CPGConfig | None = None,
+        task_kwargs: dict | None = None,
     ):
         """Args:
           task: A walking tier (`cpg_suite.evaluation.open_loop.TASKS`).
           steps: Control steps per trial.
           threads: Threads stepping the physics (results do not depend on it).
           config: CPG constants; the task starts in the CPG's standing posture.
+          task_kwargs: Further task arguments (e.g. `supply`).
 
         Raises:
           ValueError: On an unknown task or non-positive sizes.
         """
         # The episodes (reset state, own model, pushes) and the sensor layout are the
         # open-loop evaluator's.
-        self._open = BatchEvaluator(task, steps, 1, config)
+        self._open = BatchEvaluator(task, steps, 1, config, task_kwargs=task_kwargs)
         self.task, self.steps, self.config = task, steps, self._open.config
         self.n_sub = self._open.n_sub
         physics = cpg_suite.load(task, task_kwargs={"posture": self.config.offsets()}).physics

@@ -8,11 +8,43 @@ the episode's physical parameters, pushes or ground. Three disjoint ranges:
 * test (2,000,000 .. 2,000,049): the score, the same 50 seeds on every tier.
 
 Training code refuses validation and test seeds (`check_training`).
+
+The benchmark has versions (`VERSIONS`); every score card records the one it was scored
+under, and `verify` re-scores a shipped run under its card's version.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable
+
+from cpg_suite import electrical
+
+# What each version of the benchmark asks of a gait, beyond walking without falling.
+VERSIONS = {
+    1: "the study's physics: no electrical limit (cards made before 2026-11-26)",
+    2: "the DARwIn-OP's supply: a mean current over 10 A in the last second browns the "
+    "servos out and ends the trial like a fall (cpg_suite.electrical)",
+}
+BENCHMARK_VERSION = 2  # the version new cards are scored under
+
+
+def supply_limit(version: int, window: float = electrical.SUPPLY_WINDOW):
+    """The supply's limit of a benchmark version (None: version 1, no limit).
+
+    Args:
+      version: A key of `VERSIONS`.
+      window: The averaging window, s (`electrical.SupplyLimit`; version ≥ 2).
+
+    Raises:
+      ValueError: On an unknown version or a bad window.
+    """
+    if version not in VERSIONS:
+        raise ValueError(f"unknown benchmark version {version!r}; valid: {sorted(VERSIONS)}")
+    if version == 1:
+        return None
+    return dataclasses.replace(electrical.DEFAULT_SUPPLY, window=float(window))
+
 
 TRAINING = range(0, 1_000_000)
 VALIDATION = range(1_000_000, 2_000_000)

@@ -34,7 +34,7 @@ from absl import flags
 from scipy import stats
 
 import cpg_suite
-from cpg_suite import cli, cpg, evaluation, feedback, progress, protocol
+from cpg_suite import cli, cpg, darwin, electrical, evaluation, feedback, progress, protocol
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 from cpg_suite.evaluation import gait, ray_backend
 from cpg_suite.evaluation import quality as gait_quality
@@ -57,6 +57,9 @@ class ScoreSettings:
       backend: "local" threads or "ray" actors (results do not depend on it).
       ray_address: The Ray cluster for backend "ray" (host:port, "auto", or None).
       controller: "open_loop" (11 amplitudes) or "feedback" (`cpg_suite.feedback`).
+      version: The benchmark version scored under (`protocol.VERSIONS`; 1: no supply limit).
+      supply_window: The supply limit's averaging window, s (`electrical.SupplyLimit`; inf:
+        the whole trial); 1 s is the benchmark's, others measure the ranking's sensitivity.
     """
 
     tiers: tuple[str, ...] = protocol.TIERS
@@ -66,6 +69,8 @@ class ScoreSettings:
     backend: str = "local"
     ray_address: str | None = None
     controller: str = "open_loop"
+    version: int = protocol.BENCHMARK_VERSION
+    supply_window: float = electrical.SUPPLY_WINDOW
 
     def __post_init__(self):
         tiers = tuple(self.tiers)
@@ -80,6 +85,18 @@ class ScoreSettings:
         cli.require_integer("threads", self.threads, 1)
         cli.require_backend(self.backend, self.ray_address)
         cli.require_controller(self.controller)
+        cli.require(
+            self.version in protocol.VERSIONS,
+            f"--version must be one of {sorted(protocol.VERSIONS)}, got {self.version!r}",
+        )
+        cli.require(
+            isinstance(self.supply_window, (int, float)) and self.supply_window > 0,
+            f"--supply_window must be > 0 s (or inf), got {self.supply_window!r}",
+        )
+
+    def task_kwargs(self) -> dict:
+        """The tiers' task arguments for this version (the supply's limit)."""
+        return {"supply": protocol.supply_limit(self.version, self.supply_window)}
 
 
 def _interval(values: np.ndarray, statistic) -> list[float]:
@@ -101,17 +118,22 @@ def _iqm(values, axis=-1):
     return stats.trim_mean(values, 0.25, axis=axis)
 
 
-def summarize(distance: np.ndarray, fell: np.ndarray, quality: dict) -> dict:
+def summarize(
+    distance: np.ndarray, fell: np.ndarray, quality: dict, cause: np.ndarray | None = None
+) -> dict:
     """The statistics of one tier's (or the pooled) trials.
 
     Args:
       distance: (n,) forward distances, m.
-      fell: (n,) fall flags.
+      fell: (n,) failure flags (a fall or, from version 2, a brown-out).
       quality: (n,) arrays of `cpg_suite.evaluation.quality.FIELDS`.
+      cause: (n,) why each trial ended early (`open_loop.FALL`, `BROWNOUT`; 0: it did not).
 
     Returns:
-      `success_weighted_distance_m`, `fall_rate`, `distance_m` (mean, median, iqm) with
-      95 % intervals, `quality` medians, and `n`.
+      `success_weighted_distance_m`, `fall_rate` (the failures, whatever their cause),
+      `failures_by_cause` (the share of trials per cause), `speed_m_s` (the mean
+      success-weighted speed over the trial's duration, set by `_card`), `distance_m`
+      (mean, median, iqm) with 95 % intervals, `quality` medians, and `n`.
     """
     distance, fell = np.asarray(distance, float), np.asarray(fell, bool)
     success = np.where(fell, 0.0, distance)
@@ -124,6 +146,10 @@ def summarize(distance: np.ndarray, fell: np.ndarray, quality: dict) -> dict:
             "ci95": _interval(success, np.mean),
         },
         "fall_rate": {"value": falls / len(fell), "ci95": [wilson.low, wilson.high]},
+        "failures_by_cause": {
+            c: float(np.mean(cause == i + 1)) if cause is not None else None
+            for i, c in enumerate(electrical.CAUSES)
+        },
         "distance_m": {
             "mean": float(distance.mean()),
             "ci95": _interval(distance, np.mean),
@@ -138,12 +164,21 @@ def summarize(distance: np.ndarray, fell: np.ndarray, quality: dict) -> dict:
 
 
 def _card(per_tier: dict, settings: ScoreSettings, budget: dict) -> dict:
-    pooled = {k: np.concatenate([per_tier[t][k] for t in settings.tiers]) for k in ("d", "f")}
+    keys = ("d", "f", "c")
+    pooled = {k: np.concatenate([per_tier[t][k] for t in settings.tiers]) for k in keys}
     pooled_quality = {
         f: np.concatenate([per_tier[t]["q"][f] for t in settings.tiers])
         for f in gait_quality.FIELDS
     }
+    duration = settings.steps * darwin.CONTROL_TIMESTEP  # s
+
+    def row(d, f, q, c):
+        summary = summarize(d, f, q, c)
+        summary["speed_m_s"] = summary["success_weighted_distance_m"]["mean"] / duration
+        return summary
+
     return {
+        "benchmark_version": settings.version,
         # Where it ran is not what it measured: the card is the same on either backend.
         "settings": {
             k: v
@@ -152,10 +187,10 @@ def _card(per_tier: dict, settings: ScoreSettings, budget: dict) -> dict:
         },
         "seeds": protocol.held_out_seeds(settings.seeds),
         "tiers": {
-            t: summarize(per_tier[t]["d"], per_tier[t]["f"], per_tier[t]["q"])
+            t: row(per_tier[t]["d"], per_tier[t]["f"], per_tier[t]["q"], per_tier[t]["c"])
             for t in settings.tiers
         },
-        "all": summarize(pooled["d"], pooled["f"], pooled_quality),
+        "all": row(pooled["d"], pooled["f"], pooled_quality, pooled["c"]),
         "scoring_sim_steps": budget["sim_steps"],
     }
 
@@ -177,7 +212,7 @@ def score_gait(amplitudes: np.ndarray, settings: ScoreSettings | None = None) ->
 
 
 # The columns of a card's per-trial table (`score_gait_trials`, `trials.csv` of a shipped run).
-TRIAL_FIELDS = ("tier", "seed", "distance_m", "fell", "fall_step")
+TRIAL_FIELDS = ("tier", "seed", "distance_m", "fell", "fall_step", "cause")
 
 
 def score_gait_trials(
@@ -191,7 +226,8 @@ def score_gait_trials(
 
     Returns:
       `(card, trials)`: `trials` has one row per tier and test seed with `TRIAL_FIELDS`
-      (distance in metres, the fall flag, the 1-based control step of the fall or 0).
+      (distance in metres, the failure flag, the 1-based control step of the failure or
+      0, its cause: "fall", "brownout" or "").
 
     Raises:
       ray_backend.ClusterUnreachable: With backend "ray", if no cluster answers.
@@ -207,11 +243,17 @@ def score_gait_trials(
             "distance_m": float(per_tier[tier]["d"][i]),
             "fell": bool(per_tier[tier]["f"][i]),
             "fall_step": int(per_tier[tier]["s"][i]),
+            "cause": cause_name(per_tier[tier]["c"][i]),
         }
         for tier in settings.tiers
         for i, seed in enumerate(seeds)
     ]
     return card, trials
+
+
+def cause_name(cause: int) -> str:
+    """A trial's cause code (`open_loop.FALL`, `BROWNOUT`, 0) as the trial table writes it."""
+    return electrical.CAUSES[int(cause) - 1] if cause else ""
 
 
 def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> tuple[dict, dict]:
@@ -225,12 +267,14 @@ def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> tuple[dict,
             settings.backend,
             settings.ray_address,
             settings.controller,
+            task_kwargs=settings.task_kwargs(),
         ) as evaluator:
             result = evaluator.evaluate(amplitudes, seeds, quality=True)
         per_tier[tier] = {
             "d": result.distance_m[0],
             "f": result.fell[0],
             "s": result.fall_step[0],
+            "c": result.cause[0],
             "q": {f: v[0] for f, v in result.quality.items()},
         }
         sim_steps += result.sim_steps
@@ -238,7 +282,11 @@ def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> tuple[dict,
 
 
 def policy_trial(
-    policy: Callable[[dict], np.ndarray], tier: str, seed: int, steps: int = 1000
+    policy: Callable[[dict], np.ndarray],
+    tier: str,
+    seed: int,
+    steps: int = 1000,
+    task_kwargs: dict | None = None,
 ) -> dict:
     """One trial of a policy on a tier, stepping the physics as `control.Environment` does.
 
@@ -253,13 +301,16 @@ def policy_trial(
       tier: A task id of `cpg_suite.protocol.TIERS`.
       seed: The episode's seed.
       steps: Control steps.
+      task_kwargs: Further task arguments (default: the benchmark version's supply limit).
 
     Returns:
       `distance_m`, `lateral_m`, `fell` (failed: a fall or a brown-out), `fall_step`
       (1-based or 0), `cause` (0, `open_loop.FALL` or `open_loop.BROWNOUT`), `sim_steps`
       and the gait-quality measures under `quality`.
     """
-    env, observation, n_sub = start_trial(policy, tier, seed)
+    if task_kwargs is None:
+        task_kwargs = ScoreSettings().task_kwargs()
+    env, observation, n_sub = start_trial(policy, tier, seed, task_kwargs)
     physics = env.physics
     start = physics.torso_position()
     last, (fall_step, cause), records = step_policy(
@@ -278,14 +329,18 @@ def policy_trial(
     }
 
 
-def start_trial(policy, tier: str, seed: int) -> tuple:
+def start_trial(policy, tier: str, seed: int, task_kwargs: dict | None = None) -> tuple:
     """The start of `policy_trial`: the tier's environment reset with `seed` (no time
     limit), the policy reset, the first observation and the physics steps per control step.
+
+    Args:
+      task_kwargs: Further task arguments (e.g. `supply`).
 
     Returns:
       `(env, observation, n_sub)`.
     """
-    env = cpg_suite.load(tier, task_kwargs={"random": seed, "time_limit": float("inf")})
+    kwargs = {"random": seed, "time_limit": float("inf"), **(task_kwargs or {})}
+    env = cpg_suite.load(tier, task_kwargs=kwargs)
     if hasattr(policy, "reset"):
         policy.reset()
     observation = env.reset().observation
@@ -379,12 +434,13 @@ def score_policy_trials(
     for tier in settings.tiers:
         seeds = protocol.held_out_seeds(settings.seeds)
         trials = [
-            policy_trial(policy, tier, seed, settings.steps)
+            policy_trial(policy, tier, seed, settings.steps, settings.task_kwargs())
             for seed in progress.track(seeds, desc=tier)
         ]
         per_tier[tier] = {
             "d": np.array([r["distance_m"] for r in trials]),
             "f": np.array([r["fell"] for r in trials]),
+            "c": np.array([r["cause"] for r in trials]),
             "q": {f: np.array([r["quality"][f] for r in trials]) for f in gait_quality.FIELDS},
         }
         sim_steps += sum(r["sim_steps"] for r in trials)
@@ -395,6 +451,7 @@ def score_policy_trials(
                 "distance_m": r["distance_m"],
                 "fell": r["fell"],
                 "fall_step": r["fall_step"],
+                "cause": cause_name(r["cause"]),
             }
             for seed, r in zip(seeds, trials)
         ]
@@ -437,23 +494,31 @@ def score_text(row: dict) -> str:
     return f"{swd['mean']:+.3f} m [{swd['ci95'][0]:+.3f}, {swd['ci95'][1]:+.3f}]"
 
 
+REAL_ROBOT_SPEED = 0.214  # m/s: a ROBOTIS OP2 walking 3 m in 14 s (docs/darwin_op_model.md)
+
+
 def format_card(card: dict) -> str:
     """The card as a fixed-width table, one line per tier and one for all tiers."""
     lines = [
-        f"{'tier':<24} {'success-weighted m [95% CI]':>30} {'falls':>7} "
-        f"{'median m':>9} {'IQM m':>7} {'CoT':>6} {'slip/m':>7} {'sat.':>6} {'peak rad/s':>10} "
-        f"{'over 5.76':>9} {'W':>6} {'J/m':>6}"
+        f"benchmark version {card.get('benchmark_version', 1)}; "
+        f"speed = success-weighted distance / trial time (the real robot: {REAL_ROBOT_SPEED} m/s)",
+        f"{'tier':<24} {'success-weighted m [95% CI]':>30} {'m/s':>5} {'fail':>6} "
+        f"{'brown':>6} {'median m':>9} {'CoT':>6} {'slip/m':>7} {'sat.':>6} "
+        f"{'peak rad/s':>10} {'over 5.76':>9} {'A':>5} {'1s A':>5} {'W':>6} {'J/m':>6}",
     ]
     for name, row in [*card["tiers"].items(), ("all", card["all"])]:
         swd, q = row["success_weighted_distance_m"], row["quality"]
+        brownout = (row.get("failures_by_cause") or {}).get("brownout")
         lines.append(
             f"{name:<24} {swd['mean']:>8.3f} [{swd['ci95'][0]:.3f}, {swd['ci95'][1]:.3f}]"
-            f"{'':>5} {row['fall_rate']['value']:>7.1%} {row['distance_m']['median']:>9.3f} "
-            f"{row['distance_m']['iqm']:>7.3f} {_fmt(q['cost_of_transport']):>6} "
+            f"{'':>5} {_fmt(row.get('speed_m_s'), '.3f'):>5} {row['fall_rate']['value']:>6.1%} "
+            f"{_fmt(brownout, '.1%'):>6} {row['distance_m']['median']:>9.3f} "
+            f"{_fmt(q['cost_of_transport']):>6} "
             f"{_fmt(q['slip_per_m']):>7} {_fmt(q['torque_limit_share'], '.1%'):>6} "
             f"{_fmt(q['peak_joint_speed'], '.2f'):>10} "
-            f"{_fmt(q['over_speed_share'], '.1%'):>9} {_fmt(q['electrical_power_w'], '.1f'):>6} "
-            f"{_fmt(q['energy_per_m'], '.0f'):>6}"
+            f"{_fmt(q['over_speed_share'], '.1%'):>9} {_fmt(q.get('supply_current_a'), '.2f'):>5} "
+            f"{_fmt(q.get('supply_peak_1s_a'), '.2f'):>5} "
+            f"{_fmt(q['electrical_power_w'], '.1f'):>6} {_fmt(q['energy_per_m'], '.0f'):>6}"
         )
     return "\n".join(lines)
 

@@ -64,7 +64,7 @@ COPIED_POLICY = ("selected_model.zip", "selected_vecnormalize.pkl", "progress.cs
 COPIED_EXPORTED = (exported.FILE, "progress.csv")
 _GAIT, _POLICY, _EXPORTED = COPIED[0], COPIED_POLICY[0], COPIED_EXPORTED[0]
 QUICK_SEEDS = 5  # test seeds per tier in a quick verification
-_CARD_KEYS = ("tiers", "all", "scoring_sim_steps")
+_CARD_KEYS = ("benchmark_version", "tiers", "all", "scoring_sim_steps")
 
 
 def shipped_runs(root: str) -> list[str]:
@@ -76,16 +76,30 @@ def shipped_runs(root: str) -> list[str]:
     return sorted(found)
 
 
-def _settings(config: dict, seeds: int | None = None, threads: int = 2) -> score.ScoreSettings:
-    """The score settings a run's card was made with (from its config.json)."""
+def _settings(
+    config: dict, seeds: int | None = None, threads: int = 2, card: dict | None = None
+) -> score.ScoreSettings:
+    """The score settings a run's card was made with (from its config.json, and the
+    benchmark version and supply window its card records: a card without is version 1)."""
     s = config["settings"]
+    card = card or {}
     return score.ScoreSettings(
         tiers=tuple(s.get("test_tiers", protocol.TIERS)),
         seeds=s["test_seeds"] if seeds is None else seeds,
         steps=s["trial_steps"],
         threads=threads,
         controller=s.get("controller", "open_loop"),
+        version=card.get("benchmark_version", 1),
+        supply_window=card.get("settings", {}).get(
+            "supply_window", score.ScoreSettings.supply_window
+        ),
     )
+
+
+def stored_card(run_dir: str) -> dict | None:
+    """The test card a run's summary.json holds (None: none yet)."""
+    path = os.path.join(run_dir, "summary.json")
+    return runs.read_json(path).get("test") if os.path.exists(path) else None
 
 
 def _params(run_dir: str, controller: str) -> np.ndarray:
@@ -108,7 +122,7 @@ def rescore(run_dir: str, seeds: int | None = None, threads: int = 2) -> tuple[d
       OSError, KeyError, ValueError: On a run without a readable config or gait.
     """
     config = runs.read_json(os.path.join(run_dir, "config.json"))
-    settings = _settings(config, seeds, threads)
+    settings = _settings(config, seeds, threads, stored_card(run_dir))
     policy = shipped_policy(run_dir)
     if policy is None:
         return score.score_gait_trials(_params(run_dir, settings.controller), settings)
@@ -171,6 +185,7 @@ def read_trials(path: str) -> list[dict]:
             "distance_m": float(r["distance_m"]),
             "fell": r["fell"] == "True",
             "fall_step": int(r["fall_step"]),
+            "cause": r.get("cause") or ("fall" if r["fell"] == "True" else ""),
         }
         for r in rows
     ]

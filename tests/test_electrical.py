@@ -1,0 +1,201 @@
+"""The servos' electrical model and the supply's limit (`cpg_suite.electrical`), known answers
+from the MX-28 datasheet, and the same verdicts on every evaluation path."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+import cpg_suite
+from cpg_suite import cpg, electrical
+from cpg_suite.evaluation import closed_loop, open_loop
+from cpg_suite.protocol import score
+
+DT = 0.002  # s: the model's physics step
+
+
+def _free_servo(joint: str = "LegLowerL"):
+    """The DARwIn-OP model with gravity and contacts off and the torso welded in place."""
+    xml, assets = cpg_suite.darwin.get_model_and_assets()
+    model = mujoco.MjModel.from_xml_string(xml, assets)
+    model.opt.gravity[:] = 0.0
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    root = model.joint("root")
+    model.dof_damping[root.dofadr[0] : root.dofadr[0] + 6] = 1e9  # the torso held still
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    return model, data, model.actuator(joint).id, model.joint(joint)
+
+
+def _servo_current(model, data, actuator: int, joint) -> float:
+    """One servo's supply current (input power / V, floored, plus its standby), A."""
+    force = data.actuator_force[actuator]
+    velocity = data.qvel[joint.dofadr[0]]
+    damping = model.dof_damping[joint.dofadr[0]]
+    power = max(0.0, float(electrical.input_power(force, velocity, damping)))
+    return power / electrical.SUPPLY_VOLTAGE + electrical.STANDBY_CURRENT
+
+
+def test_a_free_servo_at_its_no_load_speed_draws_only_its_standby_current():
+    # Driven from one end of its range towards the other at full command (f = −2.5 N·m),
+    # the joint reaches its no-load speed: the back-EMF braking b·q̇ cancels the command.
+    model, data, actuator, joint = _free_servo()
+    model.jnt_limited[joint.id] = 0  # free to turn on, towards a target far away
+    model.actuator_ctrllimited[actuator] = 0
+    data.ctrl[actuator] = -100.0  # rad: the force stays clamped at −2.5 N·m
+    mujoco.mj_forward(model, data)
+    for _ in range(400):  # 0.8 s: the joint reaches its steady speed (τ = J/b ≈ 12 ms)
+        mujoco.mj_step(model, data)
+    assert data.actuator_force[actuator] == pytest.approx(-electrical.STALL_TORQUE)
+    speed = abs(data.qvel[joint.dofadr[0]])
+    assert speed == pytest.approx(2.5 / model.dof_damping[joint.dofadr[0]], rel=1e-3)
+    current = _servo_current(model, data, actuator, joint)
+    assert current == pytest.approx(electrical.STANDBY_CURRENT, rel=0.01)
+
+
+def test_a_stalled_servo_draws_its_stall_current_and_standby():
+    model, data, actuator, joint = _free_servo()
+    model.actuator_ctrllimited[actuator] = 0
+    data.ctrl[actuator] = 100.0  # rad: far beyond, full command
+    model.jnt_range[joint.id] = [-1e-9, 1e-9]  # held at 0 by its limit: stalled
+    data.qvel[:] = 0.0
+    mujoco.mj_forward(model, data)
+    assert data.actuator_force[actuator] == pytest.approx(electrical.STALL_TORQUE)
+    current = _servo_current(model, data, actuator, joint)
+    assert current == pytest.approx(electrical.STALL_CURRENT + electrical.STANDBY_CURRENT)
+
+
+def test_the_idle_robot_draws_standby_board_and_pc():
+    zero = np.zeros(electrical.N_SERVOS)
+    idle = electrical.supply_current(zero, zero, np.full(electrical.N_SERVOS, 0.43))
+    assert idle == pytest.approx(20 * 0.1 + 0.15 + 6.0 / 12.0)
+
+
+def test_braking_returns_nothing_to_the_battery():
+    # Back-driven against its command, the motor is a generator: P < 0, floored at 0.
+    force, velocity, damping = np.array([1.0]), np.array([-5.0]), 0.43
+    assert electrical.input_power(force, velocity, damping)[0] > 0  # I > 0, V_cmd > 0
+    assert electrical.input_power(-force, velocity, damping)[0] < 0
+    current = electrical.supply_current(-force[None], velocity[None], damping)
+    assert current[0] == pytest.approx(electrical.IDLE_CURRENT)
+
+
+def test_energy_is_copper_loss_plus_the_motors_work_over_a_walking_trial():
+    env = cpg_suite.load("darwin_walk", task_kwargs={"random": 0})
+    env.reset()
+    physics = env.physics
+    targets = cpg.trajectories(cpg.amplitudes_from("hand_tuned"), 300, env.control_timestep())
+    electric = copper = work = 0.0
+    for action in physics.targets_to_action(targets[0]):
+        env.step(action)
+        force, velocity = physics.servo_steps()
+        damping = physics.servo_damping()
+        electric += float(np.sum(electrical.input_power(force, velocity, damping))) * DT
+        copper += float(np.sum(electrical.copper_loss(force, velocity, damping))) * DT
+        work += float(np.sum(electrical.motor_power(force, velocity, damping))) * DT
+    assert copper > 1.0 and abs(work) > 0.01  # the trial did work and heated the windings
+    assert electric == pytest.approx(copper + work, rel=1e-12, abs=1e-12)
+
+
+def test_the_window_does_not_depend_on_how_the_steps_are_fed():
+    rng = np.random.default_rng(0)
+    currents = rng.uniform(2.0, 14.0, 4000)
+    for window in (0.25, 1.0, math.inf):
+        limit = electrical.SupplyLimit(current=8.0, window=window)
+        by_control_step = electrical.SupplyMonitor(limit, DT)
+        for i in range(0, len(currents), 8):
+            by_control_step.update(currents[i : i + 8])
+        at_once = electrical.SupplyMonitor(limit, DT)
+        at_once.update(currents)
+        assert by_control_step.browned_out == at_once.browned_out > 0
+        assert by_control_step.total == at_once.total
+        assert by_control_step.worst == at_once.worst
+
+
+def test_the_window_mean_is_the_last_seconds_mean_with_an_idle_start():
+    currents = np.r_[np.full(600, 3.0), np.full(400, 11.0)]
+    monitor = electrical.SupplyMonitor(electrical.SupplyLimit(), DT)
+    monitor.update(currents)
+    # After 1000 steps the 500-step window holds 100 × 3 A and 400 × 11 A: 9.4 A.
+    assert monitor.worst == pytest.approx(9.4)
+    assert not monitor.browned_out
+    # From the idle robot (2.65 A) before t = 0, 250 steps of 20 A: (250·2.65 + 250·20)/500.
+    early = electrical.SupplyMonitor(electrical.SupplyLimit(), DT)
+    early.update(np.full(250, 20.0))
+    assert early.worst == pytest.approx((250 * electrical.IDLE_CURRENT + 250 * 20.0) / 500)
+    crossed = electrical.SupplyMonitor(electrical.SupplyLimit(), DT)
+    first = crossed.update(np.full(500, 20.0))
+    # The window mean first exceeds 10 A when k·20 + (500 − k)·2.65 > 5000.
+    k = math.floor((5000 - 500 * electrical.IDLE_CURRENT) / (20.0 - electrical.IDLE_CURRENT)) + 1
+    assert first == crossed.browned_out == k
+
+
+def test_bad_limits_are_refused():
+    with pytest.raises(ValueError, match="supply limit"):
+        electrical.SupplyLimit(current=0.0)
+    with pytest.raises(ValueError, match="supply window"):
+        electrical.SupplyLimit(window=-1.0)
+    with pytest.raises(ValueError, match="under one physics step"):
+        electrical.SupplyLimit(window=1e-4).window_steps(DT)
+    with pytest.raises(ValueError, match="supply must be"):
+        cpg_suite.load("darwin_walk", task_kwargs={"supply": 10.0})
+
+
+# A limit the hand-tuned gait crosses (its 1 s mean peaks near 3.4-3.5 A): the same rule
+# with a lower current, so that each path has brown-outs to agree on.
+LOW = electrical.SupplyLimit(current=3.4)
+
+
+def _env_trial(amplitudes, seed: int, steps: int, supply):
+    env = cpg_suite.load(
+        "darwin_walk", task_kwargs={"random": seed, "time_limit": float("inf"), "supply": supply}
+    )
+    env.reset()
+    start = env.physics.torso_position()
+    targets = cpg.trajectories(amplitudes, steps, env.control_timestep())[0]
+    for t, action in enumerate(env.physics.targets_to_action(targets)):
+        ts = env.step(action)
+        if ts.last():
+            return env.physics.torso_position()[0] - start[0], t + 1, env.task.failure
+    return env.physics.torso_position()[0] - start[0], 0, env.task.failure
+
+
+def test_a_brownout_ends_the_episode_like_a_fall_and_only_with_the_limit():
+    amps = cpg.amplitudes_from("hand_tuned")
+    distance, step, failure = _env_trial(amps, 0, 300, LOW)
+    assert failure == "brownout" and 0 < step < 300
+    env = cpg_suite.load("darwin_walk", task_kwargs={"random": 0, "supply": LOW})
+    env.reset()
+    targets = cpg.trajectories(amps, step, env.control_timestep())[0]
+    for action in env.physics.targets_to_action(targets):
+        ts = env.step(action)
+    assert ts.last() and ts.discount == 0.0
+    _, unlimited_step, unlimited = _env_trial(amps, 0, 300, None)
+    assert unlimited is None and unlimited_step == 0
+
+
+def test_every_path_gives_the_tasks_brownouts_bit_for_bit():
+    amps = cpg.amplitudes_from("hand_tuned")[None] * np.array([[1.0], [1.3]])
+    seeds, steps = [0, 1], 300
+    expected = [_env_trial(a, s, steps, LOW) for a in amps for s in seeds]
+    assert {e[2] for e in expected} == {"brownout"}
+    with open_loop.BatchEvaluator("darwin_walk", steps, task_kwargs={"supply": LOW}) as ev:
+        batched = ev.evaluate(amps, seeds)
+    assert batched.distance_m.ravel().tolist() == [e[0] for e in expected]
+    assert batched.fall_step.ravel().tolist() == [e[1] for e in expected]
+    assert set(batched.cause.ravel()) == {open_loop.BROWNOUT}
+    policy = score.OpenLoopPolicy(amps[0], steps)
+    trial = score.policy_trial(policy, "darwin_walk", 0, steps, {"supply": LOW})
+    assert (trial["distance_m"], trial["fall_step"]) == expected[0][:2]
+    assert trial["cause"] == open_loop.BROWNOUT
+    params = np.zeros((1, closed_loop.feedback.N_PARAMS))
+    params[0, : cpg.N_AMPLITUDES] = amps[0]
+    with closed_loop.FeedbackEvaluator("darwin_walk", steps, task_kwargs={"supply": LOW}) as ev:
+        feedback = ev.evaluate(params, [0])
+    stepped = score.policy_trial(
+        closed_loop.FeedbackPolicy(params[0]), "darwin_walk", 0, steps, {"supply": LOW}
+    )
+    assert feedback.cause[0, 0] == stepped["cause"] == open_loop.BROWNOUT
+    assert feedback.distance_m[0, 0] == stepped["distance_m"]
+    assert feedback.fall_step[0, 0] == stepped["fall_step"]
