@@ -576,7 +576,7 @@ def run(
             ),
         )
         log(score.format_card(card))
-        summary["test"] = {k: card[k] for k in ("tiers", "all", "scoring_sim_steps")}
+        summary["test"] = score.stored_card(card)
         runs.write_rows_csv(os.path.join(run_dir, "test_trials.csv"), trials)
     runs.write_json(os.path.join(run_dir, "summary.json"), summary)
     return run_dir, summary

@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-# Dynamixel MX-28 at 12 V (ROBOTIS e-Manual, MX-28; docs/darwin_op_model.md#servos).
+# Dynamixel MX-28 at 12 V (ROBOTIS e-Manual, MX-28; docs/darwin_op_model.md#servos-dynamixel-mx-28).
 SUPPLY_VOLTAGE = (
     12.0  # V: the datasheet's voltage, the robot's supply (a choice: the LiPo is 11.1 V nominal)
 )

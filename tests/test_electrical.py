@@ -199,3 +199,27 @@ def test_every_path_gives_the_tasks_brownouts_bit_for_bit():
     assert feedback.cause[0, 0] == stepped["cause"] == open_loop.BROWNOUT
     assert feedback.distance_m[0, 0] == stepped["distance_m"]
     assert feedback.fall_step[0, 0] == stepped["fall_step"]
+
+
+def test_the_vector_env_browns_out_where_the_task_does():
+    pytest.importorskip("gymnasium")
+    from cpg_suite import vector
+
+    amps = cpg.amplitudes_from("hand_tuned")
+    seeds, steps = [0, 1], 300
+    expected = [_env_trial(amps, s, steps, LOW) for s in seeds]
+    envs = vector.DarwinVectorEnv("darwin_walk", 2, supply=LOW, time_limit=float("inf"))
+    envs.reset(seed=seeds)
+    targets = cpg.trajectories(amps, steps, 0.016)[0]
+    actions = envs.envs[0].physics.targets_to_action(targets)
+    ended = [0, 0]
+    for t in range(steps):
+        _, _, terminated, _, infos = envs.step(np.stack([actions[t]] * 2))
+        for i in np.flatnonzero(terminated):
+            if not ended[i]:
+                ended[i] = t + 1
+                assert infos["brownout"][i]
+        if all(ended):
+            break
+    envs.close()
+    assert ended == [e[1] for e in expected]

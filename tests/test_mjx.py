@@ -22,7 +22,7 @@ import jax.numpy as jnp  # noqa: E402
 import mujoco  # noqa: E402
 
 import cpg_suite  # noqa: E402
-from cpg_suite import cpg, darwin, perturbations, residual  # noqa: E402
+from cpg_suite import cpg, darwin, electrical, perturbations, residual  # noqa: E402
 from cpg_suite.mjx import modulated, physics, walk  # noqa: E402
 
 SEED = 3  # CPU task seed of the comparisons.
@@ -419,6 +419,27 @@ def test_fall_ends_the_episode(joints):
             break
     assert state.done == 1 and state.fell == 1 and int(state.step) < 300
     assert darwin.has_fallen(np.asarray(state.data.qpos[:7]))
+
+
+def test_supply_current_and_brownout_match_cpu():
+    """The supply's running total follows the CPU task's, and a limit the hand-tuned gait
+    crosses (3.4 A over 1 s; its 1 s mean peaks near 3.5 A) browns it out at the same step."""
+    low = electrical.SupplyLimit(current=3.4)
+    with jax.enable_x64(True):
+        env = walk.WalkEnv("darwin_walk", contacts="soles", supply=low)
+        step = _jit(env.step)
+    cpu, _ = _cpu_env(time_limit=float("inf"), supply=low)
+    state = env.state_from_mujoco(cpu.physics.data)
+    actions = _gait_actions(cpu.physics, 400)
+    for t in range(400):
+        state = step(state, actions[t])
+        ts = cpu.step(actions[t])
+        np.testing.assert_allclose(float(state.supply[0]), cpu.task.supply.total, rtol=1e-9)
+        if ts.last() or bool(state.done):
+            break
+    assert cpu.task.failure == "brownout" and ts.last()
+    assert bool(state.done) and state.brownout == 1 and state.fell == 1
+    assert int(state.step) == t + 1 < 400
 
 
 def test_bad_arguments():

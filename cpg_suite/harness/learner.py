@@ -509,4 +509,4 @@ def _test_card(
     )
     log(f"selected policy: segment {best['segment']} (validation {best['validation_m']:+.3f} m)")
     log(score.format_card(card))
-    return {k: card[k] for k in ("tiers", "all", "scoring_sim_steps")}
+    return score.stored_card(card)

@@ -91,4 +91,4 @@ def _test_card(params, settings, scoring, chosen, log) -> dict:
     )
     log(f"selected gait: {chosen}; test score card:")
     log(score.format_card(card))
-    return {key: card[key] for key in ("tiers", "all", "scoring_sim_steps")}
+    return score.stored_card(card)

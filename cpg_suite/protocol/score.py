@@ -211,6 +211,16 @@ def score_gait(amplitudes: np.ndarray, settings: ScoreSettings | None = None) ->
     return score_gait_trials(amplitudes, settings)[0]
 
 
+# What a run stores of its card (summary.json's "test"): the card less its settings and
+# seeds, which the run's config holds.
+CARD_KEYS = ("benchmark_version", "tiers", "all", "scoring_sim_steps")
+
+
+def stored_card(card: dict) -> dict:
+    """The part of a card a run stores (`CARD_KEYS`)."""
+    return {k: card[k] for k in CARD_KEYS}
+
+
 # The columns of a card's per-trial table (`score_gait_trials`, `trials.csv` of a shipped run).
 TRIAL_FIELDS = ("tier", "seed", "distance_m", "fell", "fall_step", "cause")
 

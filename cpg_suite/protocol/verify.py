@@ -44,6 +44,7 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
 import contextlib
 import csv
+import dataclasses
 import json
 import os
 import shutil
@@ -64,7 +65,7 @@ COPIED_POLICY = ("selected_model.zip", "selected_vecnormalize.pkl", "progress.cs
 COPIED_EXPORTED = (exported.FILE, "progress.csv")
 _GAIT, _POLICY, _EXPORTED = COPIED[0], COPIED_POLICY[0], COPIED_EXPORTED[0]
 QUICK_SEEDS = 5  # test seeds per tier in a quick verification
-_CARD_KEYS = ("benchmark_version", "tiers", "all", "scoring_sim_steps")
+_CARD_KEYS = score.CARD_KEYS
 
 
 def shipped_runs(root: str) -> list[str]:
@@ -346,6 +347,54 @@ def verify_run(run_dir: str, quick: bool = False, threads: int = 2) -> list[str]
     return problems
 
 
+def history_trials_file(version: int) -> str:
+    """The trial table of a run's card under an earlier benchmark version."""
+    return f"trials_v{version}.csv"
+
+
+def upgrade_run(run_dir: str, version: int = protocol.BENCHMARK_VERSION, threads: int = 2) -> bool:
+    """Re-scores a shipped run under a new benchmark version, keeping its card as history.
+
+    Its card under its own version is made again first (its trials must be unchanged: the
+    run does what it did) and stored with its trials as `summary.json["history"]["v<n>"]`
+    and `trials_v<n>.csv`; then the run is scored under `version`, which becomes its test
+    card and `trials.csv`. A run already under `version` is left as it is (resumable).
+
+    Args:
+      run_dir: A shipped run.
+      version: The benchmark version to score under.
+      threads: Evaluator threads.
+
+    Returns:
+      Whether the run was upgraded.
+
+    Raises:
+      ValueError: If the run's trials under its own version changed (nothing is written).
+    """
+    summary_path = os.path.join(run_dir, "summary.json")
+    old = runs.read_json(summary_path)["test"].get("benchmark_version", 1)
+    if old == version:
+        return False
+    card, trials = rescore(run_dir, threads=threads)
+    if trials != read_trials(os.path.join(run_dir, "trials.csv")):
+        raise ValueError(f"{run_dir}: its trials under version {old} changed")
+    write_trials(os.path.join(run_dir, history_trials_file(old)), trials)
+    summary = runs.read_json(summary_path)
+    history = {**summary.get("history", {}), f"v{old}": _jsonable({k: card[k] for k in _CARD_KEYS})}
+    runs.write_json(summary_path, {**summary, "history": history})
+    config = runs.read_json(os.path.join(run_dir, "config.json"))
+    settings = dataclasses.replace(_settings(config, threads=threads), version=version)
+    policy = shipped_policy(run_dir)
+    if policy is None:
+        card, trials = score.score_gait_trials(_params(run_dir, settings.controller), settings)
+    else:
+        with _policy_threads(run_dir):
+            card, trials = score.score_policy_trials(policy, settings)
+    write_trials(os.path.join(run_dir, "trials.csv"), trials)
+    _store_card(run_dir, card)
+    return True
+
+
 def _quick_sample(shipped: list[str]) -> list[str]:
     """The first run of each configuration (its folder name less the seed)."""
     chosen, seen = [], set()
@@ -393,6 +442,11 @@ def define_flags() -> None:
     flags.DEFINE_string(
         "rescore", None, "Re-score the shipped runs under this subfolder; store cards and trials."
     )
+    flags.DEFINE_integer(
+        "upgrade_to",
+        None,
+        "Score every shipped run under this benchmark version, its card kept as history.",
+    )
 
 
 def main(argv: list[str]) -> None:
@@ -415,6 +469,15 @@ def main(argv: list[str]) -> None:
         for run_dir in shipped_runs(chosen):
             rescore_run(run_dir, values.threads)
             progress.write(f"re-scored: {run_dir}")
+        return
+    if values.upgrade_to is not None:
+        cli.check(
+            values.upgrade_to in protocol.VERSIONS,
+            f"--upgrade_to must be one of {sorted(protocol.VERSIONS)}, got {values.upgrade_to}",
+        )
+        for run_dir in shipped_runs(values.artifacts):
+            if upgrade_run(run_dir, values.upgrade_to, values.threads):
+                progress.write(f"upgraded to version {values.upgrade_to}: {run_dir}")
         return
     if values.update_cards:
         for run_dir in shipped_runs(values.artifacts):
