@@ -211,13 +211,25 @@ def leaderboard_rows(found: list[dict]) -> list[dict]:
 
 
 TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
-QUALITY = ("cost_of_transport", "slip_per_m", "torque_limit_share", "peak_joint_speed")
+QUALITY = (
+    "cost_of_transport",
+    "slip_per_m",
+    "torque_limit_share",
+    "peak_joint_speed",
+    "electrical_power_w",
+    "energy_per_m",
+    "supply_current_a",
+    "supply_peak_1s_a",
+    "rms_torque_ratio",
+    "copper_loss_ratio",
+)
 # Budget tracks (docs/protocol.md#ranking): the study's budget is at most 2,501 training
 # trials (K = 50 for 50 rounds, plus the start) or 2.5 M training control steps (PPO).
 STUDY_TRIALS, STUDY_CONTROL_STEPS = 2501, 2_500_000
 TRACKS = ("study", "4x", "over_4x")
 MIN_SEEDS = 5  # fewer seeds: provisional, not ranked
 DARWIN_FIELDS = [
+    "benchmark_version",
     "track",
     "rank",
     "status",
@@ -229,6 +241,8 @@ DARWIN_FIELDS = [
     "test_ci95_low",
     "test_ci95_high",
     "test_fall_rate",
+    "test_brownout_rate",
+    "speed_m_s",
     "iqm_m",
     "iqm_ci95_low",
     "iqm_ci95_high",
@@ -291,7 +305,7 @@ def budget_track(summaries: list[dict]) -> str:
 
 
 def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
-    task, method, config = key
+    task, method, config, version = key
     tests = [s["test"] for s in summaries]
     overall = _test_score(tests)
     track = budget_track(summaries)
@@ -301,6 +315,7 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
         and all(set(TIERS) <= set(t["tiers"]) for t in tests)
     )
     row = {
+        "benchmark_version": version,
         "track": track,
         "status": "ranked" if ranked else ("reference" if not track else "provisional"),
         "_scores": score_matrix(tests) if ranked else None,
@@ -312,6 +327,10 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
         "test_ci95_low": overall["mean_ci95"][0],
         "test_ci95_high": overall["mean_ci95"][1],
         "test_fall_rate": _mean([t["all"]["fall_rate"]["value"] for t in tests]),
+        "test_brownout_rate": _mean(
+            [(t["all"].get("failures_by_cause") or {}).get("brownout") for t in tests]
+        ),
+        "speed_m_s": _mean([t["all"].get("speed_m_s") for t in tests]),
         "budget_trials": _mean([s.get("evaluations") for s in summaries]),
         "budget_sim_steps": _mean(
             [s.get("sim_steps", 0) + s.get("validation_sim_steps", 0) for s in summaries]
@@ -338,19 +357,48 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
     return row
 
 
-def darwin_rows(found: list[dict]) -> list[dict]:
+def card_under(summary: dict, version: int | None) -> dict | None:
+    """A run's test card under a benchmark version: its card if scored under it, else the
+    card kept as history (`verify.upgrade_run`); None: the run has none. `version` None:
+    its card, whatever its version."""
+    test = summary.get("test")
+    if not isinstance(test, dict) or version is None:
+        return test if isinstance(test, dict) else None
+    if test.get("benchmark_version", 1) == version:
+        return test
+    return (summary.get("history") or {}).get(f"v{version}")
+
+
+def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
     """DARwIn-OP runs ranked by their test score (success-weighted distance over the four
-    test tiers), one row per (training task, method, configuration) over its seeds.
+    test tiers), one row per (training task, method, configuration, benchmark version) over
+    its seeds.
 
     The in-sample best stays a column; the study's number sits beside it only (the best
     trial of one Webots run in its own unit), never as a ratio or a verdict.
+
+    Args:
+      found: The runs (`find_runs`).
+      version: Rank the cards under this benchmark version (kept as history where a run was
+        re-scored since); None: each run's card as it stands.
     """
     groups = defaultdict(list)
     for run in found:
         darwin = run["task"].startswith("darwin_walk") or run["method"] == PRESET_METHOD
-        if darwin and isinstance(run["summary"].get("test"), dict):
-            groups[(run["task"], run["method"], run["config"])].append(run["summary"])
+        card = card_under(run["summary"], version)
+        if darwin and card is not None:
+            key = (run["task"], run["method"], run["config"], card.get("benchmark_version", 1))
+            groups[key].append({**run["summary"], "test": card})
     return _ranked([_darwin_row(key, summaries) for key, summaries in groups.items()])
+
+
+def history_versions(found: list[dict]) -> list[int]:
+    """The benchmark versions of the cards kept as history in `found`, ascending."""
+    versions = set()
+    for run in found:
+        for key in run["summary"].get("history") or {}:
+            versions.add(int(key.lstrip("v")))
+    return sorted(versions)
 
 
 def _ranked(rows: list[dict]) -> list[dict]:
@@ -622,6 +670,9 @@ def write_tables(runs: str, out: str) -> str:
     write_csv(os.path.join(out_dir, "claims.csv"), claims, CLAIM_FIELDS)
     darwin = darwin_rows(found)
     write_csv(os.path.join(out_dir, "darwin_leaderboard.csv"), darwin, DARWIN_FIELDS)
+    for version in history_versions(found):  # cards kept under earlier benchmark versions
+        path = os.path.join(out_dir, f"darwin_leaderboard_v{version}.csv")
+        write_csv(path, darwin_rows(found, version), DARWIN_FIELDS)
     for line in skipped:
         print(f"skipped: {line}", file=sys.stderr)
     judged = sum(c["holds"] != "untested" for c in claims)

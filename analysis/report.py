@@ -592,10 +592,19 @@ def write_report(runs: str, out: str, gaits: bool = False) -> str:
     lines = _report_lines(runs, found, figures, (rows, darwin, claims), skipped)
     with open(os.path.join(out, "report.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines))
+    history = [
+        (
+            f"darwin_leaderboard_v{v}.csv",
+            leaderboard.darwin_rows(found, v),
+            leaderboard.DARWIN_FIELDS,
+        )
+        for v in leaderboard.history_versions(found)
+    ]
     for name, table, fields in (
         ("leaderboard.csv", rows, leaderboard.LEADERBOARD_FIELDS),
         ("darwin_leaderboard.csv", darwin, leaderboard.DARWIN_FIELDS),
         ("claims.csv", claims, leaderboard.CLAIM_FIELDS),
+        *history,
     ):
         leaderboard.write_csv(os.path.join(out, name), table, fields)
     made = [p for _, p in figures if p]

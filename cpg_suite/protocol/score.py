@@ -57,7 +57,8 @@ class ScoreSettings:
       backend: "local" threads or "ray" actors (results do not depend on it).
       ray_address: The Ray cluster for backend "ray" (host:port, "auto", or None).
       controller: "open_loop" (11 amplitudes) or "feedback" (`cpg_suite.feedback`).
-      version: The benchmark version scored under (`protocol.VERSIONS`; 1: no supply limit).
+      benchmark_version: The benchmark version scored under (`protocol.VERSIONS`; 1: no
+        supply limit).
       supply_window: The supply limit's averaging window, s (`electrical.SupplyLimit`; inf:
         the whole trial); 1 s is the benchmark's, others measure the ranking's sensitivity.
     """
@@ -69,7 +70,7 @@ class ScoreSettings:
     backend: str = "local"
     ray_address: str | None = None
     controller: str = "open_loop"
-    version: int = protocol.BENCHMARK_VERSION
+    benchmark_version: int = protocol.BENCHMARK_VERSION
     supply_window: float = electrical.SUPPLY_WINDOW
 
     def __post_init__(self):
@@ -86,8 +87,9 @@ class ScoreSettings:
         cli.require_backend(self.backend, self.ray_address)
         cli.require_controller(self.controller)
         cli.require(
-            self.version in protocol.VERSIONS,
-            f"--version must be one of {sorted(protocol.VERSIONS)}, got {self.version!r}",
+            self.benchmark_version in protocol.VERSIONS,
+            f"--benchmark_version must be one of {sorted(protocol.VERSIONS)}, "
+            f"got {self.benchmark_version!r}",
         )
         cli.require(
             isinstance(self.supply_window, (int, float)) and self.supply_window > 0,
@@ -96,7 +98,7 @@ class ScoreSettings:
 
     def task_kwargs(self) -> dict:
         """The tiers' task arguments for this version (the supply's limit)."""
-        return {"supply": protocol.supply_limit(self.version, self.supply_window)}
+        return {"supply": protocol.supply_limit(self.benchmark_version, self.supply_window)}
 
 
 def _interval(values: np.ndarray, statistic) -> list[float]:
@@ -178,7 +180,7 @@ def _card(per_tier: dict, settings: ScoreSettings, budget: dict) -> dict:
         return summary
 
     return {
-        "benchmark_version": settings.version,
+        "benchmark_version": settings.benchmark_version,
         # Where it ran is not what it measured: the card is the same on either backend.
         "settings": {
             k: v
@@ -547,6 +549,14 @@ def define_flags() -> None:
     flags.DEFINE_integer("threads", d.threads, "Evaluator threads (results do not depend on it).")
     cli.define_backend_flags()
     flags.DEFINE_enum("controller", d.controller, list(cli.CONTROLLERS), "What --params holds.")
+    flags.DEFINE_integer(
+        "benchmark_version",
+        d.benchmark_version,
+        f"Score under this benchmark version: {protocol.VERSIONS}.",
+    )
+    flags.DEFINE_float(
+        "supply_window", d.supply_window, "The supply limit's averaging window, s (inf: trial)."
+    )
     flags.DEFINE_string("out", None, "Directory for score.json (default: print only).")
 
 

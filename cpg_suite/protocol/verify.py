@@ -90,7 +90,7 @@ def _settings(
         steps=s["trial_steps"],
         threads=threads,
         controller=s.get("controller", "open_loop"),
-        version=card.get("benchmark_version", 1),
+        benchmark_version=card.get("benchmark_version", 1),
         supply_window=card.get("settings", {}).get(
             "supply_window", score.ScoreSettings.supply_window
         ),
@@ -383,7 +383,7 @@ def upgrade_run(run_dir: str, version: int = protocol.BENCHMARK_VERSION, threads
     history = {**summary.get("history", {}), f"v{old}": _jsonable({k: card[k] for k in _CARD_KEYS})}
     runs.write_json(summary_path, {**summary, "history": history})
     config = runs.read_json(os.path.join(run_dir, "config.json"))
-    settings = dataclasses.replace(_settings(config, threads=threads), version=version)
+    settings = dataclasses.replace(_settings(config, threads=threads), benchmark_version=version)
     policy = shipped_policy(run_dir)
     if policy is None:
         card, trials = score.score_gait_trials(_params(run_dir, settings.controller), settings)
