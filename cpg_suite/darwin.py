@@ -38,6 +38,8 @@ from [−1, 1] onto the joint's range, in the order `cpg.LEG_JOINTS`):
 from __future__ import annotations
 
 import collections
+import contextlib
+import logging
 import math
 
 import mujoco as mj
@@ -343,6 +345,11 @@ class Physics(mujoco.Physics):
     def _reload_from_data(self, data) -> None:
         super()._reload_from_data(data)
         model = self.model
+        # Views of the state the accessors read (the arrays' memory stays where it is).
+        state = self.data.ptr
+        self._qpos, self._qvel, self._xpos = state.qpos, state.qvel, state.xpos
+        self._sensordata, self._ctrl = state.sensordata, state.ctrl
+        self._dof_damping = self.model.ptr.dof_damping
         self._leg_qpos = np.array(
             [model.jnt_qposadr[model.name2id(n, "joint")] for n in cpg.LEG_JOINTS]
         )
@@ -438,16 +445,33 @@ class Physics(mujoco.Physics):
             self._step_force = np.zeros((nstep, model.nu))
             self._step_qvel = np.zeros((nstep, model.nv))
         force, qvel, records = self._step_force, self._step_qvel, []
+        actuator_force, velocity = data.actuator_force, data.qvel  # views of the state
+        step = mj.mj_step
         for i in range(nstep):
             if finish and i == 0:
                 mj.mj_step2(model, data)
             else:
-                mj.mj_step(model, data)
-            force[i] = data.actuator_force
-            qvel[i] = data.qvel
+                step(model, data)
+            force[i] = actuator_force
+            qvel[i] = velocity
             if record is not None:
                 records.append(record(self))
         return records
+
+    @contextlib.contextmanager
+    def check_invalid_state(self):
+        """dm_control's check (a new invalid-state warning raises `PhysicsError`, or is
+        logged inside `suppress_physics_errors`), with NumPy's `any` where dm_control calls
+        Python's, which iterates the warning counts one by one on every control step."""
+        np.copyto(self._warnings_before, self._warnings)
+        yield
+        np.greater(self._warnings, self._warnings_before, out=self._new_warnings)
+        if self._new_warnings.any():
+            names = np.compress(self._new_warnings, list(mj.mjtWarning.__members__))
+            message = f"Physics state is invalid. Warning(s) raised: {', '.join(names)}"
+            if self._warnings_cause_exception:
+                raise control.PhysicsError(message)
+            logging.warning(message)
 
     def servo_steps(self) -> tuple[np.ndarray, np.ndarray]:
         """The 20 servos' forces (N·m) and their joints' velocities (rad/s) after each physics
@@ -456,7 +480,7 @@ class Physics(mujoco.Physics):
 
     def servo_damping(self) -> np.ndarray:
         """The damping of the 20 servos' joints, N·m·s/rad: their back-EMF braking."""
-        return self.model.dof_damping[self._servo_dofs]
+        return self._dof_damping[self._servo_dofs]
 
     def supply_currents(self) -> np.ndarray:
         """The robot's supply current after each physics step of the last `step`, A
@@ -466,11 +490,11 @@ class Physics(mujoco.Physics):
 
     def servo_forces(self) -> np.ndarray:
         """The 20 servos' forces, N·m, in actuator order (`actuatorfrc` sensors)."""
-        return self.data.sensordata[self._sensors["servo_forces"]].copy()
+        return self._sensordata[self._sensors["servo_forces"]].copy()
 
     def servo_velocities(self) -> np.ndarray:
         """The 20 servos' joint velocities, rad/s, in actuator order."""
-        return self.data.qvel[self._servo_dofs]
+        return self._qvel[self._servo_dofs]
 
     def servo_dofs(self) -> np.ndarray:
         """The 20 servos' joint addresses in `qvel`, in actuator order."""
@@ -566,11 +590,11 @@ class Physics(mujoco.Physics):
 
     def leg_joint_angles(self) -> np.ndarray:
         """The 12 leg joint angles, rad, in `cpg.LEG_JOINTS` order."""
-        return self.data.qpos[self._leg_qpos]  # Fancy indexing returns a copy.
+        return self._qpos[self._leg_qpos]  # Fancy indexing returns a copy.
 
     def leg_joint_velocities(self) -> np.ndarray:
         """The 12 leg joint velocities, rad/s."""
-        return self.data.qvel[self._leg_dof]
+        return self._qvel[self._leg_dof]
 
     def leg_dofs(self) -> np.ndarray:
         """The 12 leg joints' addresses in `qvel`."""
@@ -582,11 +606,11 @@ class Physics(mujoco.Physics):
 
     def set_leg_targets(self, angles: np.ndarray) -> None:
         """Sets the leg servo targets, rad (clipped to the joint ranges by MuJoCo)."""
-        self.data.ctrl[self._leg_act] = angles
+        self._ctrl[self._leg_act] = angles
 
     def set_arm_targets(self, angles: np.ndarray) -> None:
         """Sets the arm and head servo targets, rad (`ARM_JOINTS` order)."""
-        self.data.ctrl[self._arm_act] = angles
+        self._ctrl[self._arm_act] = angles
 
     def controls_for(self, leg_targets: np.ndarray) -> np.ndarray:
         """Actuator controls for leg servo targets, with the arms and head held in `ARM_POSE`.
@@ -606,19 +630,19 @@ class Physics(mujoco.Physics):
     # Torso.
     def torso_position(self) -> np.ndarray:
         """Torso origin (mid-point of the shoulder axes) in the world, m."""
-        return self.data.xpos[self._torso].copy()
+        return self._xpos[self._torso].copy()
 
     def torso_height(self) -> float:
         """Height of the torso origin above the floor, m."""
-        return float(self.data.xpos[self._torso, 2])
+        return float(self._xpos[self._torso, 2])
 
     def forward_position(self) -> float:
         """x of the torso origin, m (the robot faces +x at the start)."""
-        return float(self.data.xpos[self._torso, 0])
+        return float(self._xpos[self._torso, 0])
 
     def lateral_position(self) -> float:
         """y of the torso origin, m."""
-        return float(self.data.xpos[self._torso, 1])
+        return float(self._xpos[self._torso, 1])
 
     def sensor_slices(self) -> dict[str, slice]:
         """Where the readings of the accessors below lie in `data.sensordata`, for code that
@@ -628,44 +652,48 @@ class Physics(mujoco.Physics):
 
     def torso_orientation(self) -> np.ndarray:
         """Torso orientation quaternion (w, x, y, z) from the IMU."""
-        return self.data.sensordata[self._sensors["torso_orientation"]].copy()
+        return self._sensordata[self._sensors["torso_orientation"]].copy()
 
     def root_qpos(self) -> np.ndarray:
         """The free joint's coordinates: torso position (3) and quaternion (4)."""
-        return self.data.qpos[self._root_qpos : self._root_qpos + 7].copy()
+        return self._qpos[self._root_qpos : self._root_qpos + 7].copy()
 
     def torso_upright(self) -> float:
         """z component of the torso's z axis (1 upright, 0 lying)."""
-        return float(torso_upright(self.data.qpos[self._root_qpos + 3 : self._root_qpos + 7]))
+        return float(torso_upright(self._qpos[self._root_qpos + 3 : self._root_qpos + 7]))
 
     def torso_velocity(self) -> np.ndarray:
         """Linear velocity of the torso origin in the world frame, m/s."""
-        return self.data.qvel[self._root_dof : self._root_dof + 3].copy()
+        return self._qvel[self._root_dof : self._root_dof + 3].copy()
 
     def gyro(self) -> np.ndarray:
         """IMU angular velocity in the torso frame, rad/s."""
-        return self.data.sensordata[self._sensors["gyro"]].copy()
+        return self._sensordata[self._sensors["gyro"]].copy()
 
     def accelerometer(self) -> np.ndarray:
         """IMU specific force in the torso frame, m/s²."""
-        return self.data.sensordata[self._sensors["accelerometer"]].copy()
+        return self._sensordata[self._sensors["accelerometer"]].copy()
 
     def fallen(self) -> bool:
-        """The torso is below 0.22 m or tilted more than 50° (`has_fallen`)."""
-        return bool(has_fallen(self.data.qpos[self._root_qpos : self._root_qpos + 7]))
+        """The torso is below 0.22 m or tilted more than 50° (`has_fallen`, in Python floats:
+        the same IEEE operations in the same order, without NumPy's per-call cost)."""
+        r = self._root_qpos
+        _, _, z, w, x, y, qz = self._qpos[r : r + 7].tolist()
+        upright = (w * w - x * x - y * y + qz * qz) / (w * w + x * x + y * y + qz * qz)
+        return z < _FALL_HEIGHT or upright < _FALL_TILT_COS
 
     # Feet.
     def foot_touch(self) -> np.ndarray:
         """Normal force on the (left, right) sole touch sensors, N."""
-        return self.data.sensordata[self._sensors["foot_touch"]].copy()
+        return self._sensordata[self._sensors["foot_touch"]].copy()
 
     def leg_torques(self) -> np.ndarray:
         """Torques of the 12 leg servos, N·m (`cpg.LEG_JOINTS` order)."""
-        return self.data.sensordata[self._sensors["leg_torques"]].copy()
+        return self._sensordata[self._sensors["leg_torques"]].copy()
 
     def sole_velocities(self) -> np.ndarray:
         """(2, 3) linear velocities of the (left, right) sole centres in the world, m/s."""
-        return self.data.sensordata[self._sensors["sole_velocities"]].reshape(2, 3).copy()
+        return self._sensordata[self._sensors["sole_velocities"]].reshape(2, 3).copy()
 
     def torque_limit(self) -> float:
         """The servos' torque limit, N·m."""
