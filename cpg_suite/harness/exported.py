@@ -25,6 +25,9 @@ ACTION_SPACES = residual.ACTION_SPACES
 HEADS = ("tanh_normal", "normal")
 
 
+_ROWS = 8  # observations per pass through the network (`NumpyPolicy.act`)
+
+
 class NumpyPolicy:
     """A policy trained elsewhere (e.g. Brax's PPO on MJX), run in the CPU task with NumPy.
 
@@ -61,7 +64,7 @@ class NumpyPolicy:
             (np.asarray(arrays[f"kernel_{i}"], np.float64), np.asarray(arrays[f"bias_{i}"]))
             for i in range(n)
         ]
-        self.cpg, self._physics = None, None
+        self.cpg, self._physics, self._rows = None, None, None
         if action_space == "cpg":
             self.cpg = residual.ModulatedCPG(1)
             self._physics = cpg_suite.load("darwin_walk").physics  # its joint ranges
@@ -92,8 +95,17 @@ class NumpyPolicy:
             self.cpg.reset()
 
     def act(self, features: np.ndarray) -> np.ndarray:
-        """Actions in [−1, 1] for (N, D) flat observations."""
-        x = (np.asarray(features, np.float64) - self.mean) / self.std
+        """Actions in [−1, 1] for (N, D) flat observations.
+
+        The rows go through the network `_ROWS` at a time: each row's arithmetic is its own,
+        and `pairwise_matmul`'s (rows, inputs, outputs) products of a few rows stay in the
+        CPU's cache (8 rows: half the time of 50 at once).
+        """
+        features = np.asarray(features, np.float64)
+        if len(features) > _ROWS:
+            chunks = [self.act(features[i : i + _ROWS]) for i in range(0, len(features), _ROWS)]
+            return np.concatenate(chunks)
+        x = (features - self.mean) / self.std
         for i, (kernel, bias) in enumerate(self.layers):
             x = portable.pairwise_matmul(x, kernel) + bias  # the same bits on any CPU
             if i < len(self.layers) - 1:
@@ -101,6 +113,23 @@ class NumpyPolicy:
         if self.head == "normal":
             return np.clip(x, -1.0, 1.0)
         return portable.tanh(x[..., : x.shape[-1] // 2])
+
+    def reset_batch(self, rows: int) -> None:
+        """Starts `rows` trials stepped together (`act_batch`; `score.batched_policy_trials`)."""
+        self._rows = residual.ModulatedCPG(rows) if self.cpg is not None else None
+
+    def act_batch(self, observations: dict) -> np.ndarray:
+        """(n, 12) actions for n trials' observations ((n, ...) arrays), each row what
+        `__call__` gives that trial: the policy's arithmetic is row by row (element-wise,
+        `portable.pairwise_matmul`), and so is its CPG's."""
+        parts = [np.asarray(observations[k]) for k in darwin.OBSERVATION_KEYS]
+        parts = [p.reshape(len(p), -1) for p in parts]
+        if self._rows is not None:
+            parts.append(self._rows.phase_features())
+        action = self.act(np.concatenate(parts, axis=1))
+        if self._rows is None:
+            return action
+        return residual.joint_actions(action, self._rows, self._physics, darwin.CONTROL_TIMESTEP)
 
     def __call__(self, observation: dict) -> np.ndarray:
         parts = [np.ravel(observation[k]) for k in darwin.OBSERVATION_KEYS]

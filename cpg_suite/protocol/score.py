@@ -302,11 +302,12 @@ def policy_trial(
 ) -> dict:
     """One trial of a policy on a tier, stepping the physics as `control.Environment` does.
 
-    Each control step: the task applies the action (and any push), the physics takes its
-    substeps with `mj_step` (each one's quality sensors recorded, as `mujoco.rollout`
-    records them), then `mj_step1` refreshes positions and velocities for the observation,
-    as dm_control's stepping does, and the task adds the step's supply currents. A fall, a
-    brown-out or a divergent state (MuJoCo's invalid-state warnings) ends the trial.
+    Each control step (`control_step`): the task applies the action (and any push), the
+    physics takes its substeps with `mj_step` (each one's quality sensors recorded, as
+    `mujoco.rollout` records them), then `mj_step1` refreshes positions and velocities for
+    the observation, as dm_control's stepping does, and the task adds the step's supply
+    currents. A fall, a brown-out or a divergent state (MuJoCo's invalid-state warnings)
+    ends the trial.
 
     Args:
       policy: Maps the task's observation (an ordered dict of arrays) to a (12,) action.
@@ -322,23 +323,45 @@ def policy_trial(
     """
     if task_kwargs is None:
         task_kwargs = ScoreSettings().task_kwargs()
-    env, observation, n_sub = start_trial(policy, tier, seed, task_kwargs)
-    physics = env.physics
-    start = physics.torso_position()
-    last, (fall_step, cause), records = step_policy(
-        policy, env.task, physics, observation, steps, n_sub
-    )
-    last = start if last is None else last
-    distance = float(last[0] - start[0])
-    return {
-        "distance_m": distance,
-        "lateral_m": float(last[1] - start[1]),
-        "fell": bool(fall_step),
-        "fall_step": fall_step,
-        "cause": cause,
-        "sim_steps": len(records),
-        "quality": _quality(records, physics, distance),
-    }
+    trial = _Trial(*start_trial(policy, tier, seed, task_kwargs))
+    for t in range(steps):
+        if trial.step(policy(trial.observation), t):
+            break
+    return trial.result()
+
+
+class _Trial:
+    """One policy trial's environment and what it has recorded (`policy_trial`)."""
+
+    def __init__(self, env, observation, n_sub: int):
+        self.env, self.observation, self.n_sub = env, observation, n_sub
+        self.start = env.physics.torso_position()
+        self.last, self.ended, self.records = None, (0, 0), []
+
+    def step(self, action, t: int) -> bool:
+        """Control step t with `action` (`control_step`); whether the trial has ended."""
+        env = self.env
+        last, ended, observation = control_step(
+            action, env.task, env.physics, self.n_sub, t, self.records
+        )
+        self.last = last if last is not None else self.last
+        self.observation = observation if observation is not None else self.observation
+        self.ended = ended
+        return bool(ended[0])
+
+    def result(self) -> dict:
+        last = self.start if self.last is None else self.last
+        distance = float(last[0] - self.start[0])
+        fall_step, cause = self.ended
+        return {
+            "distance_m": distance,
+            "lateral_m": float(last[1] - self.start[1]),
+            "fell": bool(fall_step),
+            "fall_step": fall_step,
+            "cause": cause,
+            "sim_steps": len(self.records),
+            "quality": _quality(self.records, self.env.physics, distance),
+        }
 
 
 def start_trial(policy, tier: str, seed: int, task_kwargs: dict | None = None) -> tuple:
@@ -361,7 +384,7 @@ def start_trial(policy, tier: str, seed: int, task_kwargs: dict | None = None) -
 
 
 def step_policy(policy, task, physics, observation, steps: int, n_sub: int, record=None):
-    """The control loop of `policy_trial`.
+    """The control loop of `policy_trial`, for other records (`control_step`).
 
     Args:
       policy, task, physics, observation: The policy, the environment's task and physics
@@ -375,22 +398,73 @@ def step_policy(policy, task, physics, observation, steps: int, n_sub: int, reco
       The torso position after the last valid control step (None if none), the failure
       as `(1-based control step or 0, cause)`, and the per-physics-step records.
     """
-    record = record or _record
-    model, data = physics.model.ptr, physics.data.ptr
     last, records = None, []
     for t in range(steps):
-        task.before_step(policy(observation), physics)
-        clear_invalid_state_warnings(data)
-        records += physics.substeps(n_sub, record=record)
-        if invalid_state(data):
-            return last, (t + 1, FALL), records
-        mujoco.mj_step1(model, data)  # positions and velocities for the observation
-        task.after_step(physics)
-        last = physics.torso_position()
-        observation = task.get_observation(physics)
-        if task.get_termination(physics) is not None:
-            return last, (t + 1, FALL if task.failure == "fall" else BROWNOUT), records
+        position, ended, observation = control_step(
+            policy(observation), task, physics, n_sub, t, records, record
+        )
+        last = position if position is not None else last
+        if ended[0]:
+            return last, ended, records
     return last, (0, 0), records
+
+
+def control_step(action, task, physics, n_sub: int, t: int, records: list, record=None):
+    """Control step t of a trial, as `control.Environment.step` takes it.
+
+    Args:
+      action: The policy's (12,) action.
+      task, physics: The trial's task and physics.
+      n_sub: Physics steps per control step.
+      t: The control step (0-based).
+      records: Extended with `record`'s value after each physics step.
+      record: Called with the physics after each physics step (default: the gait-quality
+        inputs).
+
+    Returns:
+      `(position, (failure step or 0, cause), observation)`: the torso's position and the
+      new observation (None after a divergent step, which ends the trial).
+    """
+    model, data = physics.model.ptr, physics.data.ptr
+    task.before_step(action, physics)
+    clear_invalid_state_warnings(data)
+    records += physics.substeps(n_sub, record=record or _record)
+    if invalid_state(data):
+        return None, (t + 1, FALL), None
+    mujoco.mj_step1(model, data)  # positions and velocities for the observation
+    task.after_step(physics)
+    position = physics.torso_position()
+    observation = task.get_observation(physics)
+    if task.get_termination(physics) is not None:
+        return position, (t + 1, FALL if task.failure == "fall" else BROWNOUT), observation
+    return position, (0, 0), observation
+
+
+def batched_policy_trials(
+    policy, tier: str, seeds: list[int], steps: int, task_kwargs: dict
+) -> list[dict]:
+    """`policy_trial` for many seeds at once, with one policy call per control step.
+
+    For a policy with `reset_batch(n)` and `act_batch(observations)` (observations of n
+    trials as (n, ...) arrays → (n, 12) actions), whose rows do not depend on each other
+    (`exported.NumpyPolicy`): each trial then takes the steps `policy_trial` takes, and its
+    result is the same, bit for bit (`tests/test_score.py`). A trial that has ended keeps
+    its row in the batch (its last observation) but is not stepped.
+
+    Returns:
+      The trials' results, as `policy_trial`'s, in the order of `seeds`.
+    """
+    trials = [_Trial(*start_trial(None, tier, seed, task_kwargs)) for seed in seeds]
+    policy.reset_batch(len(trials))
+    keys = trials[0].observation.keys()
+    active = list(range(len(trials)))
+    for t in range(steps):
+        observations = {k: np.stack([trial.observation[k] for trial in trials]) for k in keys}
+        actions = policy.act_batch(observations)
+        active = [i for i in active if not trials[i].step(actions[i], t)]
+        if not active:
+            break
+    return [trial.result() for trial in trials]
 
 
 def _quality(records: list, physics, distance: float) -> dict:
@@ -445,10 +519,15 @@ def score_policy_trials(
     per_tier, sim_steps, rows = {}, 0, []
     for tier in settings.tiers:
         seeds = protocol.held_out_seeds(settings.seeds)
-        trials = [
-            policy_trial(policy, tier, seed, settings.steps, settings.task_kwargs())
-            for seed in progress.track(seeds, desc=tier)
-        ]
+        if hasattr(policy, "act_batch"):
+            trials = batched_policy_trials(
+                policy, tier, seeds, settings.steps, settings.task_kwargs()
+            )
+        else:
+            trials = [
+                policy_trial(policy, tier, seed, settings.steps, settings.task_kwargs())
+                for seed in progress.track(seeds, desc=tier)
+            ]
         per_tier[tier] = {
             "d": np.array([r["distance_m"] for r in trials]),
             "f": np.array([r["fell"] for r in trials]),
