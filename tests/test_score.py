@@ -56,6 +56,42 @@ def test_policy_stepping_equals_the_batched_gait_and_the_environment(tier):
     assert trial["fall_step"] == (reference["fall_step"] or 0)
 
 
+class _OneByOne:
+    """A policy without `act_batch`: scored trial by trial."""
+
+    def __init__(self, policy):
+        self.policy = policy
+
+    def __call__(self, observation):
+        return self.policy(observation)
+
+    def reset(self):
+        self.policy.reset()
+
+
+@pytest.mark.parametrize("action_space", ["joints", "cpg"])
+def test_a_policy_scored_in_batches_gets_the_card_of_trial_by_trial(action_space):
+    from cpg_suite.harness import exported
+
+    rng = np.random.default_rng(0)
+    width = 40 + (2 if action_space == "cpg" else 0)
+    sizes = (width, 32, 32, 24)
+    arrays = {"mean": np.zeros(width), "std": np.ones(width)}
+    for i, (n, m) in enumerate(zip(sizes[:-1], sizes[1:])):
+        arrays[f"kernel_{i}"] = rng.standard_normal((n, m)) / np.sqrt(n)
+        arrays[f"bias_{i}"] = 0.1 * rng.standard_normal(m)
+    policy = exported.NumpyPolicy(arrays, action_space)
+    # 10 seeds: more than the network's 8 rows per pass; a 50 ms supply window, over which
+    # the random `joints` policy browns out in its third control step (the `cpg` one walks).
+    settings = score.ScoreSettings(
+        tiers=("darwin_walk", "darwin_walk_push"), seeds=10, steps=80, supply_window=0.05
+    )
+    batched, batched_trials = score.score_policy_trials(policy, settings)
+    one_by_one, trials = score.score_policy_trials(_OneByOne(policy), settings)
+    assert json.dumps(batched, sort_keys=True) == json.dumps(one_by_one, sort_keys=True)
+    assert batched_trials == trials
+
+
 def test_card_is_the_same_for_one_and_two_threads():
     amps = cpg.amplitudes_from("hand_tuned")
     one = score.score_gait(amps, score.ScoreSettings(seeds=3, steps=200, threads=1))
