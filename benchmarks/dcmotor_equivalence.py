@@ -24,13 +24,13 @@ import re
 
 import mujoco
 import numpy as np
-from absl import app, flags
+from absl import flags
 from mujoco import rollout
 
 import cpg_suite
-from cpg_suite import cpg, darwin, electrical
+from cpg_suite import cli, cpg, darwin, electrical
 
-_STEPS = flags.DEFINE_integer("steps", 1000, "Control steps of the hand-tuned gait.")
+MAX_STEPS = 100_000  # control steps (27 min of walking)
 
 
 def dcmotor_xml(xml: str) -> str:
@@ -50,15 +50,22 @@ def trajectories(model: mujoco.MjModel, state: np.ndarray, controls: np.ndarray)
     return rollout.rollout(model, data, state[None], controls[None])
 
 
+def define_flags() -> None:
+    """Defines this module's command-line flags (only when it runs as a program)."""
+    flags.DEFINE_integer("steps", 1000, "Control steps of the hand-tuned gait.")
+
+
 def main(argv) -> None:
     del argv
+    steps = flags.FLAGS.steps
+    cli.check(1 <= steps <= MAX_STEPS, f"--steps must be in [1, {MAX_STEPS}], got {steps}")
     env = cpg_suite.load("darwin_walk", task_kwargs={"random": 0})
     env.reset()
     physics = env.physics
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state = np.empty(mujoco.mj_stateSize(physics.model.ptr, spec))
     mujoco.mj_getState(physics.model.ptr, physics.data.ptr, state, spec)
-    targets = cpg.trajectories(cpg.amplitudes_from("hand_tuned"), _STEPS.value, 0.016)[0]
+    targets = cpg.trajectories(cpg.amplitudes_from("hand_tuned"), steps, 0.016)[0]
     n_sub = darwin.physics_steps_per_control_step(physics.model.ptr)
     controls = physics.controls_for(targets).repeat(n_sub, axis=0)
     xml, assets = darwin.get_model_and_assets()
@@ -95,4 +102,5 @@ def main(argv) -> None:
 
 
 if __name__ == "__main__":
-    app.run(main)
+    define_flags()
+    cli.run(main)

@@ -53,6 +53,7 @@ VALID = {
     ("benchmarks.bench_mjx", "iterations", "0"): "documented: with --ls_iterations=0, the model's",
     ("benchmarks.bench_mjx", "ls_iterations", "0"): "documented: with --iterations=0, the model's",
     ("cpg_suite.explore", "strip_start", "0"): "a first snapshot at the start",
+    ("cpg_suite.protocol.score", "supply_window", "inf"): "documented: the whole trial",
 }
 
 

@@ -57,8 +57,9 @@ class WindowSettings:
         object.__setattr__(self, "windows", windows)
         object.__setattr__(self, "tiers", tuple(self.tiers))
         cli.require(
-            bool(windows) and all(w > 0 for w in windows),
-            f"--windows must be > 0 s (or inf), got {self.windows}",
+            bool(windows)
+            and all(0 < w <= score.MAX_SUPPLY_WINDOW or w == math.inf for w in windows),
+            f"--windows must be in (0, {score.MAX_SUPPLY_WINDOW:g}] s or inf, got {self.windows}",
         )
         unknown = [t for t in self.tiers if t not in protocol.TIERS]
         cli.require(
@@ -66,7 +67,6 @@ class WindowSettings:
             f"unknown --tiers {unknown or self.tiers}; valid: {', '.join(protocol.TIERS)}",
         )
         cli.require_integer("seeds", self.seeds, 1, len(protocol.TEST))
-        cli.require(os.path.isdir(self.artifacts), f"--artifacts={self.artifacts} is not a folder")
 
 
 def configuration(run_dir: str, artifacts: str) -> str:
@@ -177,15 +177,16 @@ def define_flags() -> None:
 
 def main(argv) -> None:
     del argv
-    values = flags.FLAGS
+    words = flags.FLAGS.windows
     try:
-        windows = tuple(float(w) for w in values.windows)
+        windows = tuple(float(w) for w in words)
     except ValueError:
-        raise cli.UsageError(
-            f"--windows must be numbers of seconds or inf, got {values.windows}"
-        ) from None
-    settings = WindowSettings(
-        values.artifacts, windows, tuple(values.tiers), values.seeds, values.out
+        raise cli.UsageError(f"--windows must be numbers of seconds or inf, got {words}") from None
+    settings = cli.settings_from_flags(
+        WindowSettings, windows=windows, tiers=tuple(flags.FLAGS.tiers)
+    )
+    cli.check(
+        os.path.isdir(settings.artifacts), f"--artifacts={settings.artifacts} is not a folder"
     )
     os.makedirs(settings.out, exist_ok=True)
     print(table(run(settings)))

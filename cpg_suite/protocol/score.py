@@ -25,6 +25,7 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
 import dataclasses
 import json
+import math
 import os
 from collections.abc import Callable
 
@@ -41,6 +42,7 @@ from cpg_suite.evaluation import quality as gait_quality
 from cpg_suite.evaluation.open_loop import BROWNOUT, FALL
 from cpg_suite.harness import runs
 
+MAX_SUPPLY_WINDOW = 3600.0  # s: a window longer than any trial (inf: the whole trial)
 _BOOTSTRAP_RESAMPLES = 2000
 _BOOTSTRAP_SEED = 0
 
@@ -92,8 +94,10 @@ class ScoreSettings:
             f"got {self.benchmark_version!r}",
         )
         cli.require(
-            isinstance(self.supply_window, (int, float)) and self.supply_window > 0,
-            f"--supply_window must be > 0 s (or inf), got {self.supply_window!r}",
+            isinstance(self.supply_window, (int, float))
+            and (0 < self.supply_window <= MAX_SUPPLY_WINDOW or self.supply_window == math.inf),
+            f"--supply_window must be in (0, {MAX_SUPPLY_WINDOW:g}] s or inf (the whole "
+            f"trial), got {self.supply_window!r}",
         )
 
     def task_kwargs(self) -> dict:
