@@ -8,7 +8,7 @@ Runs, as separate processes, into `DIR/runs/`:
   2. the pole-balancing claims experiment (`baselines.experiments.pole_claims`);
   3. the crawler experiments (`baselines.experiments.crawler_experiments`);
   4. the CEM settings of thesis Table 6.3 (`baselines.cem --grid=table6_3`), 5 seeds for
-     K = 50 in `--full`;
+     K = 50 in `--full`, under the study's unlimited physics (`--benchmark_version=1`);
   5. CMA-ES at the K = 50 budget (`baselines.cmaes`);
   6. the NAC finding and reward-hypothesis test (`baselines.experiments.nac_experiments`);
 then `analysis.leaderboard` and `analysis.report` into `DIR/` (with the rendered gaits in
@@ -136,6 +136,7 @@ def experiment_steps(
     (pole, CEM, CMA-ES, NAC; the crawler experiments run here)."""
     backend = list(backend)
     optimizer = [f"--output_dir={runs}", f"--threads={threads}", "--resume", *backend]
+    study = ["--benchmark_version=1"]  # the thesis' tables: the study's unlimited physics
     steps = [
         (
             "tokic value iteration",
@@ -159,13 +160,15 @@ def experiment_steps(
                 "--resume",
             ],
         ),
-        ("CEM, thesis Table 6.3", ["baselines.cem", "--grid=table6_3", *optimizer]),
+        ("CEM, thesis Table 6.3", ["baselines.cem", "--grid=table6_3", *optimizer, *study]),
     ]
     steps[1][1].extend(plan["pole"])
     steps[2][1].extend(plan["crawler"])
     steps[3][1].extend(plan["cem"])
     if plan["cem_k50"]:
-        steps.append(("CEM, K = 50 seeds", ["baselines.cem", "--grid=table6_3", *optimizer]))
+        steps.append(
+            ("CEM, K = 50 seeds", ["baselines.cem", "--grid=table6_3", *optimizer, *study])
+        )
         steps[-1][1].extend(plan["cem_k50"])
     for extra in plan["cmaes"]:
         steps.append(("CMA-ES", ["baselines.cmaes", *optimizer, *extra]))

@@ -223,3 +223,25 @@ def test_the_vector_env_browns_out_where_the_task_does():
             break
     envs.close()
     assert ended == [e[1] for e in expected]
+
+
+def test_benchmark_versions_choose_the_supply_limit():
+    from cpg_suite import protocol
+    from cpg_suite.harness.interface import OptimizerSettings
+
+    assert protocol.supply_limit(1) is None
+    assert protocol.supply_limit(2) == electrical.DEFAULT_SUPPLY
+    assert OptimizerSettings(benchmark_version=1).task_kwargs() == {"supply": None}
+    with pytest.raises(ValueError, match="benchmark_version"):
+        OptimizerSettings(benchmark_version=3)
+    amps = cpg.amplitudes_from("hand_tuned")
+    for version in (1, 2):
+        settings = score.ScoreSettings(
+            tiers=("darwin_walk",), seeds=1, steps=20, benchmark_version=version
+        )
+        card = score.score_gait(amps, settings)
+        assert card["benchmark_version"] == version
+        assert card["all"]["failures_by_cause"] == {"fall": 0.0, "brownout": 0.0}
+        assert card["all"]["speed_m_s"] == pytest.approx(
+            card["all"]["success_weighted_distance_m"]["mean"] / (20 * 0.016)
+        )

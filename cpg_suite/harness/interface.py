@@ -43,6 +43,9 @@ class OptimizerSettings:
       test_seeds: Test seeds per tier the selected gait is scored on at the end (0: none).
       controller: What is tuned: "open_loop" (the study's 11 CPG amplitudes) or
         "feedback" (the amplitudes and the feedback CPG's gains, `cpg_suite.feedback`).
+      benchmark_version: The benchmark version trained and scored under
+        (`protocol.VERSIONS`): 2, the DARwIn-OP's supply limit; 1, the study's unlimited
+        physics (to reproduce its tables).
     """
 
     task: str = "darwin_walk"
@@ -59,9 +62,15 @@ class OptimizerSettings:
     validation_top: int = 3
     test_seeds: int = len(protocol.TEST)
     controller: str = "open_loop"
+    benchmark_version: int = protocol.BENCHMARK_VERSION
 
     def __post_init__(self):
         require = cli.require
+        require(
+            self.benchmark_version in protocol.VERSIONS,
+            f"--benchmark_version must be one of {sorted(protocol.VERSIONS)}, "
+            f"got {self.benchmark_version!r}",
+        )
         cli.require_controller(self.controller)
         require(self.task in TASKS, f"unknown --task {self.task!r}; valid: {', '.join(TASKS)}")
         for name, low in (("population", 2), ("rounds", 1), ("seed", 0), ("trial_steps", 1)):
@@ -73,6 +82,10 @@ class OptimizerSettings:
         cli.require_integer("validation_every", self.validation_every, 0)
         cli.require_integer("validation_top", self.validation_top, 0)
         cli.require_integer("test_seeds", self.test_seeds, 0, len(protocol.TEST))
+
+    def task_kwargs(self) -> dict:
+        """The training task's arguments for this version (its supply limit)."""
+        return {"supply": protocol.supply_limit(self.benchmark_version)}
 
 
 class Optimizer(Protocol):

@@ -70,6 +70,11 @@ def define_flags() -> None:
     flags.DEFINE_enum(
         "controller", d.controller, list(cli.CONTROLLERS), "open_loop amplitudes or feedback CPG."
     )
+    flags.DEFINE_integer(
+        "benchmark_version",
+        d.benchmark_version,
+        "Train and score under this benchmark version (1: the study's unlimited physics).",
+    )
 
 
 def start_vector(settings: OptimizerSettings) -> np.ndarray:
@@ -239,6 +244,7 @@ def _run_in_directory(method, optimizer, settings, options, log) -> tuple[str, d
         options.backend,
         options.ray_address,
         settings.controller,
+        task_kwargs=settings.task_kwargs(),
     ) as evaluator:
         summary = rounds.run_rounds(
             optimizer,

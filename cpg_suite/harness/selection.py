@@ -87,7 +87,12 @@ def _test_card(params, settings, scoring, chosen, log) -> dict:
     """The selected gait's test score card (tiers, all tiers, physics steps); logs it."""
     card = score.score_gait(
         params,
-        score.ScoreSettings(seeds=settings.test_seeds, steps=settings.trial_steps, **scoring),
+        score.ScoreSettings(
+            seeds=settings.test_seeds,
+            steps=settings.trial_steps,
+            benchmark_version=getattr(settings, "benchmark_version", protocol.BENCHMARK_VERSION),
+            **scoring,
+        ),
     )
     log(f"selected gait: {chosen}; test score card:")
     log(score.format_card(card))
