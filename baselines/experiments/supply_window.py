@@ -5,7 +5,8 @@ r"""How the ranking moves with the supply limit's averaging window (docs/darwin_
 
 The benchmark's supply limit is 10 A averaged over the last second (version 2); the window
 is a modelling choice. This scores every shipped run (`--artifacts`) under version 2 with
-each of `--windows` (s; `inf`: the mean since the start of the trial) on `--tiers` and
+each of `--windows` (s; 16 s is a whole trial's length, its part before the start the idle
+robot's as for every window; `inf`: the running mean since the start) on `--tiers` and
 `--seeds` test seeds, writes one row per run and window to `scores.csv` (appended run by
 run: a stopped experiment resumes where it was), then prints per configuration the mean
 success-weighted distance and brown-out rate under each window, and its rank.
@@ -40,17 +41,20 @@ class WindowSettings:
 
     Attributes:
       artifacts: The shipped runs.
-      windows: The averaging windows, s (inf: the whole trial so far).
+      windows: The averaging windows, s (16: a whole trial; inf: the mean since the start).
       tiers: The test tiers.
       seeds: How many test seeds per tier.
       out: The folder of `scores.csv`.
+      methods: Only the runs under these subfolders of `artifacts`, in this order (empty:
+        every run).
     """
 
     artifacts: str = verify.ARTIFACTS
-    windows: tuple[float, ...] = (0.25, 1.0, math.inf)
+    windows: tuple[float, ...] = (0.25, 1.0, 16.0)
     tiers: tuple[str, ...] = ("darwin_walk",)
     seeds: int = len(protocol.TEST)
     out: str = "supply_window"
+    methods: tuple[str, ...] = ()
 
     def __post_init__(self):
         windows = tuple(float(w) for w in self.windows)
@@ -102,7 +106,7 @@ def run(settings: WindowSettings) -> list[dict]:
     path = os.path.join(settings.out, "scores.csv")
     rows = _read(path)
     done = {(r["run"], float(r["window_s"])) for r in rows}
-    for run_dir in verify.shipped_runs(settings.artifacts):
+    for run_dir in _runs(settings):
         name = os.path.relpath(run_dir, settings.artifacts)
         for window in settings.windows:
             if (name, window) in done:
@@ -120,6 +124,19 @@ def run(settings: WindowSettings) -> list[dict]:
             )
             runs.write_rows_csv(path, rows)  # atomic: a finished run is never lost
     return rows
+
+
+def _runs(settings: WindowSettings) -> list[str]:
+    """The shipped runs to score, those of `methods` first in that order."""
+    shipped = verify.shipped_runs(settings.artifacts)
+    if not settings.methods:
+        return shipped
+    return [
+        run_dir
+        for method in settings.methods
+        for run_dir in shipped
+        if os.path.relpath(run_dir, settings.artifacts).split(os.sep)[0] == method
+    ]
 
 
 def _read(path: str) -> list[dict]:
@@ -173,6 +190,7 @@ def define_flags() -> None:
     flags.DEFINE_list("tiers", list(d.tiers), f"Test tiers: {', '.join(protocol.TIERS)}.")
     flags.DEFINE_integer("seeds", d.seeds, "Test seeds per tier.")
     flags.DEFINE_string("out", d.out, "Folder of scores.csv.")
+    flags.DEFINE_list("methods", list(d.methods), "Only these subfolders of --artifacts, in order.")
 
 
 def main(argv) -> None:
@@ -183,11 +201,18 @@ def main(argv) -> None:
     except ValueError:
         raise cli.UsageError(f"--windows must be numbers of seconds or inf, got {words}") from None
     settings = cli.settings_from_flags(
-        WindowSettings, windows=windows, tiers=tuple(flags.FLAGS.tiers)
+        WindowSettings,
+        windows=windows,
+        tiers=tuple(flags.FLAGS.tiers),
+        methods=tuple(flags.FLAGS.methods),
     )
     cli.check(
         os.path.isdir(settings.artifacts), f"--artifacts={settings.artifacts} is not a folder"
     )
+    missing = [
+        m for m in settings.methods if not os.path.isdir(os.path.join(settings.artifacts, m))
+    ]
+    cli.check(not missing, f"--methods {missing} are not folders of {settings.artifacts}")
     os.makedirs(settings.out, exist_ok=True)
     print(table(run(settings)))
 
