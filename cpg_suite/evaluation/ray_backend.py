@@ -232,4 +232,5 @@ def concatenate(parts: list[BatchResult], axis: int = 0) -> BatchResult:
         join([p.fall_step for p in parts]),
         int(sum(p.sim_steps for p in parts)),
         quality,
+        join([p.cause for p in parts]),
     )
