@@ -37,6 +37,7 @@ from absl import flags
 
 from analysis import published
 from cpg_suite import cli
+from cpg_suite.evaluation import quality as gait_quality
 from cpg_suite.protocol import aggregate
 from cpg_suite.protocol.stats import mean_std_ci95
 
@@ -216,12 +217,7 @@ QUALITY = (
     "slip_per_m",
     "torque_limit_share",
     "peak_joint_speed",
-    "electrical_power_w",
-    "energy_per_m",
-    "supply_current_a",
-    "supply_peak_1s_a",
-    "rms_torque_ratio",
-    "copper_loss_ratio",
+    *gait_quality.ELECTRICAL_FIELDS,
 )
 # Budget tracks (docs/protocol.md#ranking): the study's budget is at most 2,501 training
 # trials (K = 50 for 50 rounds, plus the start) or 2.5 M training control steps (PPO).

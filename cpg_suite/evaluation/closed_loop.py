@@ -141,10 +141,11 @@ class FeedbackEvaluator:
         p = np.atleast_2d(np.asarray(params, dtype=np.float64))
         seeds = [int(s) for s in np.atleast_1d(seeds)]
         rows = np.repeat(p, len(seeds), axis=0)  # trial i = (k, seed) = (i // S, i % S)
+        episodes = [self._open.episode(s) for s in seeds]
         trials = [
-            _Trial(self._open.episode(s), self._root, self._open._monitor(self._open.episode(s)))
+            _Trial(episode, self._root, self._open._monitor(episode))
             for _ in p
-            for s in seeds
+            for episode in episodes
         ]
         controller = feedback.FeedbackCPG(rows, self.config)
         active = list(range(len(trials)))

@@ -256,6 +256,8 @@ class BatchEvaluator:
         n = len(roots) if diverged is None else diverged
         fallen = np.flatnonzero(darwin.has_fallen(roots[:n]))
         fall = int(fallen[0]) + 1 if fallen.size else (diverged + 1 if diverged is not None else 0)
+        if self.supply is None:  # the study's physics: nothing to test
+            return (fall, FALL) if fall else None
         width = len(self._servo_qvel)
         limit_steps = (fall if fall else len(roots)) * self.n_sub
         currents = electrical.supply_current(

@@ -39,6 +39,15 @@ _LIMIT_FRACTION = 0.99  # of the torque limit: a servo at or above it is saturat
 N_LEGS = 12  # the leg servos: the first 12 of the 20
 PEAK_WINDOW = electrical.SupplyLimit(window=1.0)  # the card's worst-window supply current
 
+# The robot's electrical load (`_electrical`), the last of `FIELDS`.
+ELECTRICAL_FIELDS = (
+    "electrical_power_w",
+    "energy_per_m",
+    "supply_current_a",
+    "supply_peak_1s_a",
+    "rms_torque_ratio",
+    "copper_loss_ratio",
+)
 FIELDS = (
     "cost_of_transport",
     "slip_per_m",
@@ -48,12 +57,7 @@ FIELDS = (
     "over_speed_share",
     "over_speed_motor_share",
     "over_speed_external_share",
-    "electrical_power_w",
-    "energy_per_m",
-    "supply_current_a",
-    "supply_peak_1s_a",
-    "rms_torque_ratio",
-    "copper_loss_ratio",
+    *ELECTRICAL_FIELDS,
 )
 
 
