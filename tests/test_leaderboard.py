@@ -6,6 +6,7 @@ import json
 import pytest
 
 from analysis import leaderboard, published
+from cpg_suite.evaluation import quality
 
 
 def _run(root, method, task, name, summary):
@@ -134,3 +135,8 @@ def test_a_learner_is_on_the_track_of_the_budget_it_was_given(tmp_path):
     found, _ = leaderboard.find_runs(str(runs))
     tracks = {r["config"]: r["track"] for r in leaderboard.darwin_rows(found)}
     assert tracks == {"joints": "study", "cpg": "4x"}
+
+
+def test_board_shows_card_quality_fields_and_every_electrical_one():
+    assert set(leaderboard.QUALITY) <= set(quality.FIELDS)
+    assert set(quality.ELECTRICAL_FIELDS) <= set(leaderboard.QUALITY)
