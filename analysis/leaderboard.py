@@ -98,6 +98,7 @@ def _add_score_card(dirpath: str, found: list[dict], skipped: list[str]) -> None
             "seed": None,
             "summary": summary,
             "dir": dirpath,
+            "trained_version": None,
         }
     )
 
@@ -124,7 +125,8 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
         except (OSError, ValueError) as e:
             skipped.append(f"{path}: {type(e).__name__}")
             continue
-        summary = _with_given_budget(summary, os.path.join(dirpath, "config.json"))
+        config_path = os.path.join(dirpath, "config.json")
+        summary = _with_given_budget(summary, config_path)
         match = _SEED.match(run_name)
         config = (match["config"] or "default") if match else run_name
         seed = int(match["seed"]) if match else None
@@ -136,9 +138,21 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
                 "seed": seed,
                 "summary": summary,
                 "dir": dirpath,
+                "trained_version": trained_version(config_path),
             }
         )
     return found, skipped
+
+
+def trained_version(config_path: str) -> int:
+    """The benchmark version a run trained under: its config's `benchmark_version` setting;
+    1 (the study's unlimited physics) for a run made before the setting existed, or with no
+    readable config (a score card)."""
+    try:
+        with open(config_path, encoding="utf-8") as f:
+            return int(json.load(f)["settings"].get("benchmark_version", 1))
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return 1
 
 
 def _with_given_budget(summary: dict, config_path: str) -> dict:
@@ -233,6 +247,7 @@ TRACKS = ("study", "4x", "over_4x")
 MIN_SEEDS = 5  # fewer seeds: provisional, not ranked
 DARWIN_FIELDS = [
     "benchmark_version",
+    "trained_version",
     "track",
     "rank",
     "status",
@@ -307,20 +322,30 @@ def budget_track(summaries: list[dict]) -> str:
     return "study" if ratio <= 1 else "4x" if ratio <= 4 else "over_4x"
 
 
+def _status(track: str, trained: int | None, version: int, complete: bool) -> str:
+    """A configuration's standing on the board of `version` (docs/protocol.md#ranking):
+    "reference" (a preset: no training), "trained_v<n>" (trained under an earlier version:
+    listed, not ranked), "ranked" (at least `MIN_SEEDS` seeds, every tier), "provisional"."""
+    if not track:
+        return "reference"
+    if trained is not None and trained != version:
+        return f"trained_v{trained}"
+    return "ranked" if complete else "provisional"
+
+
 def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
-    task, method, config, version = key
+    task, method, config, version, trained = key
     tests = [s["test"] for s in summaries]
     overall = _test_score(tests)
     track = budget_track(summaries)
-    ranked = (
-        bool(track)
-        and len(summaries) >= MIN_SEEDS
-        and all(set(TIERS) <= set(t["tiers"]) for t in tests)
-    )
+    complete = len(summaries) >= MIN_SEEDS and all(set(TIERS) <= set(t["tiers"]) for t in tests)
+    status = _status(track, trained, version, complete)
+    ranked = status == "ranked"
     row = {
         "benchmark_version": version,
+        "trained_version": "" if trained is None else trained,
         "track": track,
-        "status": "ranked" if ranked else ("reference" if not track else "provisional"),
+        "status": status,
         "_scores": score_matrix(tests) if ranked else None,
         "training_task": task,
         "method": method,
@@ -374,8 +399,9 @@ def card_under(summary: dict, version: int | None) -> dict | None:
 
 def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
     """DARwIn-OP runs ranked by their test score (success-weighted distance over the four
-    test tiers), one row per (training task, method, configuration, benchmark version) over
-    its seeds.
+    test tiers), one row per (training task, method, configuration, benchmark version of
+    the cards, version trained under) over its seeds. A configuration trained under an
+    earlier version than its cards' is listed, not ranked (`_status`).
 
     The in-sample best stays a column; the study's number sits beside it only (the best
     trial of one Webots run in its own unit), never as a ratio or a verdict.
@@ -390,7 +416,9 @@ def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
         darwin = run["task"].startswith("darwin_walk") or run["method"] == PRESET_METHOD
         card = card_under(run["summary"], version)
         if darwin and card is not None:
-            key = (run["task"], run["method"], run["config"], card.get("benchmark_version", 1))
+            version_of_card = card.get("benchmark_version", 1)
+            key = (run["task"], run["method"], run["config"], version_of_card)
+            key += (run.get("trained_version"),)
             groups[key].append({**run["summary"], "test": card})
     return _ranked([_darwin_row(key, summaries) for key, summaries in groups.items()])
 

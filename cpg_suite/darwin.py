@@ -406,6 +406,9 @@ class Physics(mujoco.Physics):
             raise ValueError("expects the legs' then the arms' servos and a one-stage integrator")
         self._step_force = np.zeros((0, model.nu))  # per physics step of the last `substeps`
         self._step_qvel = np.zeros((0, model.nv))
+        self._step_sensors = np.zeros((0, model.nsensordata))
+        self._step_velocity = np.zeros((0, model.nu))  # the servos' part of `_step_qvel`
+        self._meter: electrical.SupplyMeter | None = None  # `supply_currents`' buffers
         self._leg_range = model.jnt_range[[model.name2id(n, "joint") for n in cpg.LEG_JOINTS]]
         self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
         names = [model.id2name(i, "geom") or "" for i in range(model.ngeom)]
@@ -424,18 +427,23 @@ class Physics(mujoco.Physics):
         Args:
           nstep: Physics steps.
         """
-        with self.check_invalid_state():
-            self.substeps(nstep, finish=True)
-            mj.mj_step1(self.model.ptr, self.data.ptr)
+        np.copyto(self._warnings_before, self._warnings)  # `check_invalid_state`, inline
+        self.substeps(nstep, finish=True)
+        mj.mj_step1(self.model.ptr, self.data.ptr)
+        self._raise_new_warnings()
 
-    def substeps(self, nstep: int, finish: bool = False, record=None) -> list:
+    def substeps(
+        self, nstep: int, finish: bool = False, record=None, sensors: bool = False
+    ) -> list:
         """Takes `nstep` physics steps, recording after each the servos' forces and the
-        joint velocities (`servo_steps`).
+        joint velocities (`servo_steps`), and with `sensors` the sensor readings
+        (`sensor_steps`).
 
         Args:
           nstep: Physics steps.
           finish: The first step is `mj_step2` (`mj_step1` already ran), else `mj_step`.
           record: Called with the physics after each step; its values are returned.
+          sensors: Also record `data.sensordata` after each step.
 
         Returns:
           The values `record` returned (empty without one).
@@ -444,8 +452,11 @@ class Physics(mujoco.Physics):
         if len(self._step_force) != nstep:
             self._step_force = np.zeros((nstep, model.nu))
             self._step_qvel = np.zeros((nstep, model.nv))
+            self._step_sensors = np.zeros((nstep, model.nsensordata))
         force, qvel, records = self._step_force, self._step_qvel, []
+        readings = self._step_sensors if sensors else None
         actuator_force, velocity = data.actuator_force, data.qvel  # views of the state
+        sensordata = data.sensordata
         step = mj.mj_step
         for i in range(nstep):
             if finish and i == 0:
@@ -454,9 +465,24 @@ class Physics(mujoco.Physics):
                 step(model, data)
             force[i] = actuator_force
             qvel[i] = velocity
+            if readings is not None:
+                readings[i] = sensordata
             if record is not None:
                 records.append(record(self))
         return records
+
+    def sensor_steps(self) -> tuple[np.ndarray, ...]:
+        """What the score card's gait-quality measures read after each physics step of the
+        last `substeps(..., sensors=True)`, as the accessors read it after a step: the
+        servos' joint velocities and forces (n, 20), the soles' touch (n, 2) and
+        velocities (n, 6); copies."""
+        readings, s = self._step_sensors, self._sensors
+        return (
+            self._step_qvel[:, self._servo_dofs],
+            readings[:, s["servo_forces"]].copy(),
+            readings[:, s["foot_touch"]].copy(),
+            readings[:, s["sole_velocities"]].copy(),
+        )
 
     @contextlib.contextmanager
     def check_invalid_state(self):
@@ -465,6 +491,11 @@ class Physics(mujoco.Physics):
         Python's, which iterates the warning counts one by one on every control step."""
         np.copyto(self._warnings_before, self._warnings)
         yield
+        self._raise_new_warnings()
+
+    def _raise_new_warnings(self) -> None:
+        """The end of `check_invalid_state`: a warning counted since `_warnings_before`
+        raises `PhysicsError` (or is logged)."""
         np.greater(self._warnings, self._warnings_before, out=self._new_warnings)
         if self._new_warnings.any():
             names = np.compress(self._new_warnings, list(mj.mjtWarning.__members__))
@@ -485,8 +516,16 @@ class Physics(mujoco.Physics):
     def supply_currents(self) -> np.ndarray:
         """The robot's supply current after each physics step of the last `step`, A
         (`electrical.supply_current`)."""
-        force, velocity = self.servo_steps()
-        return electrical.supply_current(force, velocity, self.servo_damping())
+        return self._supply_currents().copy()
+
+    def _supply_currents(self) -> np.ndarray:
+        """`supply_currents` in a buffer the next call overwrites (the tasks' hot path)."""
+        force, qvel = self._step_force, self._step_qvel
+        if self._meter is None or len(self._step_velocity) != len(force):
+            self._meter = electrical.SupplyMeter(len(force), len(self._servo_dofs))
+            self._step_velocity = np.zeros_like(force)
+        velocity = np.take(qvel, self._servo_dofs, axis=1, out=self._step_velocity)
+        return self._meter(force, velocity, self.servo_damping())
 
     def servo_forces(self) -> np.ndarray:
         """The 20 servos' forces, N·m, in actuator order (`actuatorfrc` sensors)."""
@@ -958,7 +997,7 @@ class CPGTask(base.Task):
 
     def after_step(self, physics: Physics) -> None:
         """Adds the step's supply currents to the episode's (`electrical.SupplyMonitor`)."""
-        self.supply.update(physics.supply_currents())
+        self.supply.update(physics._supply_currents())
         super().after_step(physics)
 
     def get_termination(self, physics: Physics):

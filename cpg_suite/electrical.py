@@ -152,6 +152,42 @@ def supply_current(force, velocity, damping, xp=np):
     return xp.sum(power, axis=-1) / SUPPLY_VOLTAGE + IDLE_CURRENT
 
 
+class SupplyMeter:
+    """`supply_current` for NumPy arrays of a fixed shape, in buffers kept between calls.
+
+    The same operations in the same order as `supply_current` (`motor_current`, then
+    `input_power`, the floor at 0, the sum over the servos), so the same bits
+    (`tests/test_electrical.py`), without allocating: the per-control-step hot path of the
+    CPU tasks (`darwin.Physics.supply_currents`).
+    """
+
+    def __init__(self, steps: int, servos: int = N_SERVOS):
+        """Args:
+        steps: Physics steps per call (rows of `force` and `velocity`).
+        servos: Servos per step.
+        """
+        self._current = np.zeros((steps, servos))
+        self._power = np.zeros((steps, servos))
+        self._total = np.zeros(steps)
+
+    def __call__(self, force: np.ndarray, velocity: np.ndarray, damping: np.ndarray) -> np.ndarray:
+        """The supply current after each step, A, as `supply_current(force, velocity,
+        damping)`; a buffer the next call overwrites.
+
+        Args:
+          force, velocity: (steps, servos) float64 arrays; damping: (servos,).
+        """
+        current = np.multiply(damping, velocity, out=self._current)
+        np.subtract(force, current, out=current)
+        np.divide(current, TORQUE_CONSTANT, out=current)  # `motor_current`
+        power = np.multiply(force, RESISTANCE / TORQUE_CONSTANT, out=self._power)
+        np.multiply(power, current, out=power)  # `input_power`
+        np.maximum(power, 0.0, out=power)
+        total = np.add.reduce(power, axis=-1, out=self._total)  # `np.sum`'s reduction
+        np.divide(total, SUPPLY_VOLTAGE, out=total)
+        return np.add(total, IDLE_CURRENT, out=total)
+
+
 class SupplyMonitor:
     """One trial's supply current, step by step: its running total and the limit's verdict.
 
@@ -194,7 +230,10 @@ class SupplyMonitor:
           The 1-based index (among these n) of the first step whose window mean exceeds the
           limit, or 0. After a brown-out the monitor keeps measuring but reports no other.
         """
-        values = np.asarray(currents, dtype=np.float64).tolist()
+        if isinstance(currents, np.ndarray) and currents.dtype == np.float64:
+            values = currents.tolist()  # the hot path: no conversion
+        else:
+            values = np.asarray(currents, dtype=np.float64).tolist()
         total, worst, k = self.total, self.worst, self.steps
         limit = self.limit.current if self.enforce and not self.browned_out else math.inf
         ring, w, first = self._ring, self.window, 0

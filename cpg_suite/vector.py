@@ -290,7 +290,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             bad = base.invalid_state(data)
             if not bad:
                 mujoco.mj_step1(model, data)
-                env.task.supply.update(env.physics.supply_currents())
+                env.task.supply.update(env.physics._supply_currents())
             self._read(i)
             flags.append(bad)
         return flags

@@ -245,3 +245,17 @@ def test_benchmark_versions_choose_the_supply_limit():
         assert card["all"]["speed_m_s"] == pytest.approx(
             card["all"]["success_weighted_distance_m"]["mean"] / (20 * 0.016)
         )
+
+
+def test_the_meter_gives_supply_current_bit_for_bit():
+    """`SupplyMeter` (in place, the tasks' hot path) = `supply_current`, bits included,
+    with braking servos (negative power) and signed zeros among the inputs."""
+    rng = np.random.default_rng(3)
+    force = rng.uniform(-2.5, 2.5, (8, electrical.N_SERVOS))
+    velocity = rng.uniform(-8.0, 8.0, (8, electrical.N_SERVOS))
+    force[0, :3], velocity[0, :3] = -0.0, 0.0
+    damping = rng.uniform(0.3, 0.6, electrical.N_SERVOS)
+    meter = electrical.SupplyMeter(8)
+    for _ in range(2):  # the buffers are reused
+        got = meter(force, velocity, damping)
+        assert got.tobytes() == electrical.supply_current(force, velocity, damping).tobytes()

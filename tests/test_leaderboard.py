@@ -140,3 +140,30 @@ def test_a_learner_is_on_the_track_of_the_budget_it_was_given(tmp_path):
 def test_board_shows_card_quality_fields_and_every_electrical_one():
     assert set(leaderboard.QUALITY) <= set(quality.FIELDS)
     assert set(quality.ELECTRICAL_FIELDS) <= set(leaderboard.QUALITY)
+
+
+def test_a_configuration_trained_under_an_earlier_version_is_listed_not_ranked(tmp_path):
+    """Re-scored under version 2, a run trained under version 1 keeps its version-1 card as
+    history: ranked on the version-1 board, listed below the ranked rows on version 2's."""
+    runs = tmp_path / "runs"
+    for name, trained, level in (("old", 1, 5.0), ("new", 2, 3.0)):
+        for seed in range(5):
+            s = level + 0.01 * seed
+            card = {**_card([s] * 4), "benchmark_version": 2}
+            summary = {"evaluations": 2501, "sim_steps": 1, "test": card}
+            if trained == 1:
+                summary["history"] = {"v1": {**_card([s + 1] * 4), "benchmark_version": 1}}
+            _run(runs, "cem", "darwin_walk", f"{name}_seed{seed}", summary)
+            config = {"settings": {"seed": seed}}
+            if trained == 2:
+                config["settings"]["benchmark_version"] = 2
+            path = runs / "cem" / "darwin_walk" / f"{name}_seed{seed}" / "config.json"
+            path.write_text(json.dumps(config))
+    found, _ = leaderboard.find_runs(str(runs))
+    board = leaderboard.darwin_rows(found, version=2)
+    assert [(r["config"], r["trained_version"], r["rank"], r["status"]) for r in board] == [
+        ("new", 2, 1, "ranked"),
+        ("old", 1, "", "trained_v1"),
+    ]
+    history = leaderboard.darwin_rows(found, version=1)
+    assert [(r["config"], r["rank"], r["status"]) for r in history] == [("old", 1, "ranked")]

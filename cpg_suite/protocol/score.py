@@ -23,6 +23,7 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
     cli.without_rendering()
 
+import concurrent.futures
 import dataclasses
 import json
 import math
@@ -340,7 +341,8 @@ class _Trial:
     def __init__(self, env, observation, n_sub: int):
         self.env, self.observation, self.n_sub = env, observation, n_sub
         self.start = env.physics.torso_position()
-        self.last, self.ended, self.records = None, (0, 0), []
+        self.last, self.ended = None, (0, 0)
+        self.records = []  # the gait-quality inputs of each control step (`sensor_steps`)
 
     def step(self, action, t: int) -> bool:
         """Control step t with `action` (`control_step`); whether the trial has ended."""
@@ -363,7 +365,7 @@ class _Trial:
             "fell": bool(fall_step),
             "fall_step": fall_step,
             "cause": cause,
-            "sim_steps": len(self.records),
+            "sim_steps": sum(len(chunk[0]) for chunk in self.records),
             "quality": _quality(self.records, self.env.physics, distance),
         }
 
@@ -405,7 +407,7 @@ def step_policy(policy, task, physics, observation, steps: int, n_sub: int, reco
     last, records = None, []
     for t in range(steps):
         position, ended, observation = control_step(
-            policy(observation), task, physics, n_sub, t, records, record
+            policy(observation), task, physics, n_sub, t, records, record or _record
         )
         last = position if position is not None else last
         if ended[0]:
@@ -421,9 +423,9 @@ def control_step(action, task, physics, n_sub: int, t: int, records: list, recor
       task, physics: The trial's task and physics.
       n_sub: Physics steps per control step.
       t: The control step (0-based).
-      records: Extended with `record`'s value after each physics step.
-      record: Called with the physics after each physics step (default: the gait-quality
-        inputs).
+      records: Extended with `record`'s value after each physics step; without `record`,
+        given the step's gait-quality inputs as one chunk (`Physics.sensor_steps`).
+      record: Called with the physics after each physics step.
 
     Returns:
       `(position, (failure step or 0, cause), observation)`: the torso's position and the
@@ -432,7 +434,11 @@ def control_step(action, task, physics, n_sub: int, t: int, records: list, recor
     model, data = physics.model.ptr, physics.data.ptr
     task.before_step(action, physics)
     clear_invalid_state_warnings(data)
-    records += physics.substeps(n_sub, record=record or _record)
+    if record is None:
+        physics.substeps(n_sub, sensors=True)
+        records.append(physics.sensor_steps())
+    else:
+        records += physics.substeps(n_sub, record=record)
     if invalid_state(data):
         return None, (t + 1, FALL), None
     mujoco.mj_step1(model, data)  # positions and velocities for the observation
@@ -445,7 +451,7 @@ def control_step(action, task, physics, n_sub: int, t: int, records: list, recor
 
 
 def batched_policy_trials(
-    policy, tier: str, seeds: list[int], steps: int, task_kwargs: dict
+    policy, tier: str, seeds: list[int], steps: int, task_kwargs: dict, threads: int = 1
 ) -> list[dict]:
     """`policy_trial` for many seeds at once, with one policy call per control step.
 
@@ -453,7 +459,9 @@ def batched_policy_trials(
     trials as (n, ...) arrays → (n, 12) actions), whose rows do not depend on each other
     (`exported.NumpyPolicy`): each trial then takes the steps `policy_trial` takes, and its
     result is the same, bit for bit (`tests/test_score.py`). A trial that has ended keeps
-    its row in the batch (its last observation) but is not stepped.
+    its row in the batch (its last observation) but is not stepped. The trials' control
+    steps run in `threads` threads (MuJoCo releases the GIL while it steps); each trial is
+    stepped by one thread at a time, so the results do not depend on `threads`.
 
     Returns:
       The trials' results, as `policy_trial`'s, in the order of `seeds`.
@@ -462,17 +470,28 @@ def batched_policy_trials(
     policy.reset_batch(len(trials))
     keys = trials[0].observation.keys()
     active = list(range(len(trials)))
-    for t in range(steps):
-        observations = {k: np.stack([trial.observation[k] for trial in trials]) for k in keys}
-        actions = policy.act_batch(observations)
-        active = [i for i in active if not trials[i].step(actions[i], t)]
-        if not active:
-            break
+
+    def step_block(block: list[int], actions: np.ndarray, t: int) -> list[int]:
+        """Control step t of some trials; those still going."""
+        return [i for i in block if not trials[i].step(actions[i], t)]
+
+    with concurrent.futures.ThreadPoolExecutor(max(threads - 1, 1)) as pool:
+        for t in range(steps):
+            observations = {k: np.stack([trial.observation[k] for trial in trials]) for k in keys}
+            actions = policy.act_batch(observations)
+            blocks = [active[k::threads] for k in range(min(threads, len(active)))]
+            # The calling thread steps the first block while the pool steps the others.
+            futures = [pool.submit(step_block, block, actions, t) for block in blocks[1:]]
+            going = step_block(blocks[0], actions, t) + [i for f in futures for i in f.result()]
+            active = sorted(going)
+            if not active:
+                break
     return [trial.result() for trial in trials]
 
 
-def _quality(records: list, physics, distance: float) -> dict:
-    columns = [np.array(c) for c in zip(*records)] if records else [np.zeros((0, 20))] * 4
+def _quality(chunks: list, physics, distance: float) -> dict:
+    """The card's gait-quality measures of a trial from its control steps' chunks."""
+    columns = [np.concatenate(c) for c in zip(*chunks)] if chunks else [np.zeros((0, 20))] * 4
     return gait_quality.measures(
         columns[0],
         columns[1],
@@ -503,7 +522,8 @@ def score_policy(
     Args:
       policy: Maps the task's observation to a (12,) action in [−1, 1]. If it has a
         `reset()` method, that is called before each trial.
-      settings: What to measure (default: every tier, all 50 test seeds; `threads` unused).
+      settings: What to measure (default: every tier, all 50 test seeds; `threads` steps the
+        trials of a batched policy, `batched_policy_trials`).
 
     Returns:
       The card, as `score_gait`.
@@ -525,7 +545,7 @@ def score_policy_trials(
         seeds = protocol.held_out_seeds(settings.seeds)
         if hasattr(policy, "act_batch"):
             trials = batched_policy_trials(
-                policy, tier, seeds, settings.steps, settings.task_kwargs()
+                policy, tier, seeds, settings.steps, settings.task_kwargs(), settings.threads
             )
         else:
             trials = [
