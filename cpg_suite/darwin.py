@@ -410,6 +410,8 @@ class Physics(mujoco.Physics):
         self._step_velocity = np.zeros((0, model.nu))  # the servos' part of `_step_qvel`
         self._meter: electrical.SupplyMeter | None = None  # `supply_currents`' buffers
         self._leg_range = model.jnt_range[[model.name2id(n, "joint") for n in cpg.LEG_JOINTS]]
+        self._leg_low = self._leg_range[:, 0].copy()  # `action_to_targets`' constants
+        self._leg_span = self._leg_range[:, 1] - self._leg_range[:, 0]
         self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
         names = [model.id2name(i, "geom") or "" for i in range(model.ngeom)]
         self._tiles = np.array([i for i, n in enumerate(names) if n.startswith("tile")], int)
@@ -868,8 +870,7 @@ class Physics(mujoco.Physics):
 
     def action_to_targets(self, action: np.ndarray) -> np.ndarray:
         """Normalized action in [−1, 1] -> leg joint angles, rad."""
-        low, high = self._leg_range[:, 0], self._leg_range[:, 1]
-        return low + (np.asarray(action) + 1.0) * 0.5 * (high - low)
+        return self._leg_low + (np.asarray(action) + 1.0) * 0.5 * self._leg_span
 
 
 class CPGTask(base.Task):
