@@ -37,7 +37,8 @@ from cpg_suite import cli, protocol
 from cpg_suite.harness import exported
 from cpg_suite.protocol import score
 
-RUN = os.path.join("results", "protocol", "runs", "ppo_mjx", "darwin_walk", "cpg_seed0")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RUN = os.path.join(ROOT, "results", "protocol", "runs", "ppo_mjx", "darwin_walk", "cpg_seed0")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,7 +46,7 @@ class BenchPolicyScoreSettings:
     """What the benchmark scores.
 
     Attributes:
-      run: A shipped run folder holding `selected_policy.npz`.
+      run: A shipped run folder holding `selected_policy.npz` (checked by `main`).
       tier: The test tier.
       seeds: Test seeds (trials).
       steps: Control steps per trial.
@@ -59,14 +60,12 @@ class BenchPolicyScoreSettings:
     repeats: int = 2
 
     def __post_init__(self):
-        path = os.path.join(self.run, exported.FILE)
-        cli.require(os.path.isfile(path), f"--run={self.run} holds no {exported.FILE}")
+        for name in ("seeds", "steps", "repeats"):
+            cli.require_integer(name, getattr(self, name), 1)
         cli.require(
             self.tier in protocol.TIERS,
             f"--tier must be one of {', '.join(protocol.TIERS)}, got {self.tier!r}",
         )
-        for name in ("seeds", "steps", "repeats"):
-            cli.require_integer(name, getattr(self, name), 1)
 
 
 def one_by_one(policy, settings: BenchPolicyScoreSettings, seeds: list[int]) -> list[tuple]:
@@ -128,7 +127,10 @@ def define_flags() -> None:
 
 def main(argv: list[str]) -> None:
     del argv
-    benchmark(cli.settings_from_flags(BenchPolicyScoreSettings))
+    settings = cli.settings_from_flags(BenchPolicyScoreSettings)
+    path = os.path.join(settings.run, exported.FILE)
+    cli.check(os.path.isfile(path), f"--run={settings.run} holds no {exported.FILE}")
+    benchmark(settings)
 
 
 if __name__ == "__main__":

@@ -141,3 +141,23 @@ def test_cli_bad_input(args, words):
     assert out.returncode == 2
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and words in lines[0]
+
+
+@pytest.mark.parametrize("run", ["ppo/darwin_walk/cpg_seed0", "ppo/darwin_walk/joints_seed0"])
+def test_a_shipped_sb3_policy_scored_in_batches_gets_the_card_of_trial_by_trial(run):
+    """SB3 policies step their trials together too: the network row by row, the CPG rows
+    and the physics of all trials at once (two threads); the same trials and card."""
+    pytest.importorskip("stable_baselines3")
+    import os
+
+    from cpg_suite.protocol import verify
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    run_dir = os.path.join(root, verify.ARTIFACTS, run)
+    settings = score.ScoreSettings(tiers=("darwin_walk_push",), seeds=3, steps=60)
+    with verify._policy_threads(run_dir):
+        policy = verify.shipped_policy(run_dir)
+        batched = score.score_policy_trials(policy, settings)
+        one_by_one = score.score_policy_trials(_OneByOne(policy), settings)
+    assert json.dumps(batched[0], sort_keys=True) == json.dumps(one_by_one[0], sort_keys=True)
+    assert batched[1] == one_by_one[1]

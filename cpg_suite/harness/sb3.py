@@ -285,6 +285,31 @@ class TrainedPolicy:
         if self.cpg is not None:
             self.cpg.reset()
 
+    def reset_batch(self, rows: int) -> None:
+        """Starts `rows` trials stepped together (`act_batch`; `score.batched_policy_trials`)."""
+        self._rows = None
+        if self.cpg is not None:
+            self._rows = residual.ModulatedCPG(
+                rows,
+                amplitude_scale=self.settings.amplitude_scale,
+                rate_scale=self.settings.rate_scale,
+            )
+
+    def act_batch(self, observations: dict) -> np.ndarray:
+        """(n, 12) actions for n trials' observations ((n, ...) arrays), each row what
+        `__call__` gives that trial: the network runs one row at a time, as `__call__`
+        runs it (a batched torch product may round differently), the normalizer and the
+        CPG rows (element-wise) all at once."""
+        parts = [np.asarray(observations[k], dtype=np.float64) for k in OBS_KEYS]
+        parts = [p.reshape(len(p), -1) for p in parts]
+        if self._rows is not None:
+            parts.append(self._rows.phase_features())
+        flat = np.concatenate(parts, axis=1)
+        action = np.concatenate([predict(self.model, self.normalizer, row[None]) for row in flat])
+        if self._rows is None:
+            return action
+        return residual.joint_actions(action, self._rows, self._physics, darwin.CONTROL_TIMESTEP)
+
     def __call__(self, observation: dict) -> np.ndarray:
         features = dict(observation)
         if self.cpg is not None:
@@ -306,8 +331,22 @@ def predict(model: BaseAlgorithm, normalizer: VecNormalize, flat: np.ndarray) ->
 
     Returns:
       (N, A) float64 actions.
+
+    `model.predict(..., deterministic=True)`'s steps with the policy's own methods, but the
+    policy is put in evaluation mode only when it is not (SB3 walks all its modules on
+    every call, a third of a one-row call's time); the same arithmetic, the same bits.
     """
-    actions, _ = model.predict(normalizer.normalize_obs(flat), deterministic=True)
+    policy = model.policy
+    if policy.training:
+        policy.set_training_mode(False)
+    observation, _ = policy.obs_to_tensor(normalizer.normalize_obs(flat))
+    with torch.no_grad():
+        actions = policy._predict(observation, deterministic=True)
+    actions = actions.cpu().numpy().reshape((-1, *policy.action_space.shape))
+    if policy.squash_output:
+        actions = policy.unscale_action(actions)
+    else:
+        actions = np.clip(actions, policy.action_space.low, policy.action_space.high)
     return np.asarray(actions, dtype=np.float64)
 
 

@@ -2,6 +2,7 @@ r"""Shipped leaderboard artifacts: make them from run directories, and re-score 
 
   python -m cpg_suite.protocol.verify                      # every shipped run, bit for bit
   python -m cpg_suite.protocol.verify --quick              # a sample, within a minute
+  python -m cpg_suite.protocol.verify --jobs=4             # four runs at a time (default 2)
   python -m cpg_suite.protocol.verify --ship_from=runs     # copy finished runs in first
   python -m cpg_suite.protocol.verify --update_cards       # after the card gains a measure
   python -m cpg_suite.protocol.verify --rescore=ppo_mjx    # after a policy's arithmetic changed
@@ -42,10 +43,12 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
     cli.without_rendering()
 
+import concurrent.futures
 import contextlib
 import csv
 import dataclasses
 import json
+import multiprocessing
 import os
 import shutil
 from collections.abc import Callable
@@ -407,9 +410,21 @@ def _quick_sample(shipped: list[str]) -> list[str]:
 
 
 def verify(
-    artifacts: str, quick: bool = False, threads: int = 2, log: Callable[[str], None] = print
+    artifacts: str,
+    quick: bool = False,
+    threads: int = 2,
+    log: Callable[[str], None] = print,
+    jobs: int = 1,
 ) -> int:
     """Re-scores the shipped runs under `artifacts`.
+
+    Args:
+      artifacts: The folder of shipped runs.
+      quick: A sample (`_quick_sample`, `verify_run`'s quick check).
+      threads: Evaluator threads of each run.
+      log: Given a line per run, in the order of the runs, and a last line.
+      jobs: Runs re-scored at once, each in its own process (1: in this one). The runs are
+        independent: the outcome does not depend on it.
 
     Returns:
       The number of runs that differ (0: every card and trial reproduced bit for bit).
@@ -422,10 +437,18 @@ def verify(
         raise ValueError(f"no shipped runs under {artifacts}")
     chosen = _quick_sample(shipped) if quick else shipped
     failed = 0
-    for run_dir in chosen:
-        problems = verify_run(run_dir, quick, threads)
-        failed += bool(problems)
-        log(f"{'DIFF' if problems else 'ok  '} {run_dir}" + "".join(f"; {p}" for p in problems))
+    with contextlib.ExitStack() as stack:
+        if jobs > 1:
+            spawn = multiprocessing.get_context("spawn")  # no forked threads or torch state
+            pool = concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn)
+            outcomes = stack.enter_context(pool).map(
+                verify_run, chosen, [quick] * len(chosen), [threads] * len(chosen)
+            )
+        else:
+            outcomes = (verify_run(run_dir, quick, threads) for run_dir in chosen)
+        for run_dir, problems in zip(chosen, outcomes):
+            failed += bool(problems)
+            log(f"{'DIFF' if problems else 'ok  '} {run_dir}" + "".join(f"; {p}" for p in problems))
     log(f"{len(chosen) - failed} of {len(chosen)} shipped runs reproduced bit for bit")
     return failed
 
@@ -435,6 +458,7 @@ def define_flags() -> None:
     flags.DEFINE_string("artifacts", ARTIFACTS, "Folder of shipped runs.")
     flags.DEFINE_bool("quick", False, f"Re-score {QUICK_SEEDS} seeds per tier of one run each.")
     flags.DEFINE_integer("threads", 2, "Evaluator threads (results do not depend on it).")
+    flags.DEFINE_integer("jobs", 2, "Runs re-scored at once, a process each (1: none).")
     flags.DEFINE_string("ship_from", None, "First ship the finished runs under this folder.")
     flags.DEFINE_bool(
         "update_cards", False, "Re-score every shipped run and store its card (trials unchanged)."
@@ -454,6 +478,7 @@ def main(argv: list[str]) -> None:
     del argv
     values = flags.FLAGS
     cli.check(values.threads >= 1, f"--threads must be ≥ 1, got {values.threads}")
+    cli.check(values.jobs >= 1, f"--jobs must be ≥ 1, got {values.jobs}")
     if values.ship_from is not None:
         cli.check(
             os.path.isdir(values.ship_from), f"--ship_from={values.ship_from} is not a directory"
@@ -485,7 +510,7 @@ def main(argv: list[str]) -> None:
             progress.write(f"card updated: {run_dir}")
         return  # the cards were just made by the same scoring: run verify on its own
     try:
-        failed = verify(values.artifacts, values.quick, values.threads)
+        failed = verify(values.artifacts, values.quick, values.threads, jobs=values.jobs)
     except ValueError as e:
         raise cli.UsageError(str(e)) from None
     if failed:
