@@ -473,6 +473,13 @@ class Physics(mujoco.Physics):
                 records.append(record(self))
         return records
 
+    def record_steps_into(self, force: np.ndarray, qvel: np.ndarray) -> None:
+        """Makes `substeps` of `len(force)` steps record into these (steps, nu) and
+        (steps, nv) arrays: views of a caller's larger buffers (`vector.DarwinVectorEnv`
+        keeps all its robots' records in one array)."""
+        self._step_force, self._step_qvel = force, qvel
+        self._step_sensors = np.zeros((len(force), self.model.nsensordata))
+
     def sensor_steps(self) -> tuple[np.ndarray, ...]:
         """What the score card's gait-quality measures read after each physics step of the
         last `substeps(..., sensors=True)`, as the accessors read it after a step: the

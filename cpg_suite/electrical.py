@@ -161,21 +161,24 @@ class SupplyMeter:
     CPU tasks (`darwin.Physics.supply_currents`).
     """
 
-    def __init__(self, steps: int, servos: int = N_SERVOS):
+    def __init__(self, steps: int | tuple[int, ...], servos: int = N_SERVOS):
         """Args:
-        steps: Physics steps per call (rows of `force` and `velocity`).
+        steps: Physics steps per call (rows of `force` and `velocity`), or the shape of
+          the leading axes (e.g. robots × physics steps).
         servos: Servos per step.
         """
-        self._current = np.zeros((steps, servos))
-        self._power = np.zeros((steps, servos))
-        self._total = np.zeros(steps)
+        shape = (steps,) if isinstance(steps, int) else tuple(steps)
+        self._current = np.zeros((*shape, servos))
+        self._power = np.zeros((*shape, servos))
+        self._total = np.zeros(shape)
 
     def __call__(self, force: np.ndarray, velocity: np.ndarray, damping: np.ndarray) -> np.ndarray:
         """The supply current after each step, A, as `supply_current(force, velocity,
         damping)`; a buffer the next call overwrites.
 
         Args:
-          force, velocity: (steps, servos) float64 arrays; damping: (servos,).
+          force, velocity: (*steps, servos) float64 arrays; damping: broadcastable to them
+            ((servos,), or (robots, 1, servos) for robots × steps).
         """
         current = np.multiply(damping, velocity, out=self._current)
         np.subtract(force, current, out=current)

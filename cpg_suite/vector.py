@@ -43,7 +43,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 import cpg_suite
-from cpg_suite import base, darwin
+from cpg_suite import base, darwin, electrical
 
 WALK_TASKS = tuple(t for t in cpg_suite.TASK_IDS if t.startswith("darwin_walk"))
 
@@ -115,6 +115,16 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self._sensordata = np.zeros((self.num_envs, model.nsensordata))
         self._torso_pos = np.zeros((self.num_envs, 3))
         self.n_sub = int(round(first.control_timestep() / first.physics.timestep()))
+        # Every robot's servo forces and joint velocities after each physics step of the
+        # control step, recorded by its physics into its row (`Physics.record_steps_into`),
+        # and the supply currents computed from them for all robots at once.
+        self._step_force = np.zeros((self.num_envs, self.n_sub, model.nu))
+        self._step_qvel = np.zeros((self.num_envs, self.n_sub, model.nv))
+        for i, env in enumerate(self.envs):
+            env.physics.record_steps_into(self._step_force[i], self._step_qvel[i])
+        self._servo_dofs = first.physics.servo_dofs()
+        self._damping = np.zeros((self.num_envs, 1, len(self._servo_dofs)))  # at each reset
+        self._meter = electrical.SupplyMeter((self.num_envs, self.n_sub), len(self._servo_dofs))
         self.step_limit = int(round(first._step_limit)) if np.isfinite(first._step_limit) else None
         self.physics_steps = 0  # physics steps simulated so far, all sub-environments
         self._steps = np.zeros(self.num_envs, dtype=np.int64)  # control steps this episode
@@ -228,6 +238,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             env.task.reseed(seed)
         env.reset()
         self._steps[i], self._done[i] = 0, False
+        self._damping[i, 0] = env.physics.servo_damping()  # the episode's drawn damping
         self._read(i)
         self._x[i] = self._torso_pos[i, 0]
 
@@ -271,13 +282,23 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         for k, block_flags in enumerate(flags):
             errors[k :: self.threads] = block_flags
         self.physics_steps += self.n_sub * len(active)
+        self._add_supply(active[~errors])
         return errors
+
+    def _add_supply(self, stepped: np.ndarray) -> None:
+        """The supply currents of this control step's physics steps, for every robot at
+        once (`electrical.SupplyMeter`: each robot's the same bits as its own task's
+        `supply_currents`), into the tasks' monitors of the robots `stepped`."""
+        velocity = np.take(self._step_qvel, self._servo_dofs, axis=2)
+        currents = self._meter(self._step_force, velocity, self._damping)
+        for i in stepped:
+            self.envs[i].task.supply.update(currents[i])
 
     def _step_block(self, work: list) -> list[bool]:
         """`control.Environment.step` for some sub-environments, in one thread: the servo
         targets and push, the substeps (`mj_step2` then `mj_step`, the GIL released), the
-        invalid-state test, `mj_step1`, the supply currents into the task's monitor, and a
-        copy of the state the observations read."""
+        invalid-state test, `mj_step1`, and a copy of the state the observations read (the
+        supply currents follow for all robots at once, `_add_supply`)."""
         flags = []
         for i, targets, push in work:
             model, data = self._models[i], self._datas[i]
@@ -290,7 +311,6 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             bad = base.invalid_state(data)
             if not bad:
                 mujoco.mj_step1(model, data)
-                env.task.supply.update(env.physics._supply_currents())
             self._read(i)
             flags.append(bad)
         return flags
