@@ -1,0 +1,104 @@
+"""The README's leaderboard table, in Markdown, from a `darwin_leaderboard.csv`.
+
+    python results/protocol/board_table.py [results/protocol/darwin_leaderboard.csv]
+
+One row per configuration of the board, in its order: the ranked rows of each track, then
+the provisional ones and those trained under an earlier benchmark version (`trained_v<n>`,
+listed without a rank). Every figure is the CSV's, rounded for reading.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
+METHODS = {
+    "cem": "CEM K = 50, the main job",
+    "cmaes": "CMA-ES K = 50",
+    "ppo": "PPO",
+    "ppo_mjx": "PPO on MJX",
+}
+TRAINING = {"darwin_walk": "nominal", "darwin_walk_randomized": "randomized"}
+HEADER = (
+    "| track | rank | method (training tier) | seeds | IQM [95 % CI] | mean [95 % CI] | m/s "
+    "| failures (brown-outs) | A, worst 1 s | nominal | randomized | push | rough "
+    "| P(improvement over next) [95 % CI] |\n" + "|---" * 14 + "|"
+)
+
+
+def _method(row: dict) -> str:
+    config = row["config"]
+    name = METHODS.get(row["method"], row["method"])
+    if row["method"] in ("ppo", "ppo_mjx"):
+        name += f" `{config}`"
+    if config.endswith("_feedback"):
+        name = "CMA-ES K = 50, feedback CPG"
+    training = TRAINING.get(row["training_task"], row["training_task"])
+    return f"{name} ({training})"
+
+
+def _f(value: str, digits: int = 2) -> str:
+    return "" if value == "" else f"{float(value):.{digits}f}"
+
+
+def _rank(row: dict) -> str:
+    if row["status"] == "ranked":
+        return row["rank"]
+    return row["status"].replace("_", " ")
+
+
+def _p_next(row: dict) -> str:
+    if row["p_improvement_next"] == "":
+        return "—"
+    text = (
+        f"{_f(row['p_improvement_next'])} [{_f(row['p_improvement_ci95_low'])}, "
+        f"{_f(row['p_improvement_ci95_high'])}]"
+    )
+    return text + (" (tied)" if row["tied_with_next"] == "True" else "")
+
+
+def markdown_row(row: dict) -> str:
+    """One configuration's table row."""
+    iqm = (
+        f"{_f(row['iqm_m'])} [{_f(row['iqm_ci95_low'])}, {_f(row['iqm_ci95_high'])}]"
+        if row["iqm_m"]
+        else "—"
+    )
+    mean = f"{_f(row['test_score_m'])} [{_f(row['test_ci95_low'])}, {_f(row['test_ci95_high'])}]"
+    failures = (
+        f"{100 * float(row['test_fall_rate']):.1f}% "
+        f"({100 * float(row['test_brownout_rate'] or 0):.1f}%)"
+    )
+    supply = f"{_f(row['supply_current_a'], 1)}, {_f(row['supply_peak_1s_a'], 1)}"
+    tiers = [
+        f"{_f(row[f'{t}_score_m'])}, {100 * float(row[f'{t}_fall_rate']):.0f}%" for t in TIERS
+    ]
+    cells = [
+        row["track"],
+        _rank(row),
+        _method(row),
+        row["n_seeds"],
+        iqm,
+        mean,
+        _f(row["speed_m_s"], 3),
+        failures,
+        supply,
+        *tiers,
+        _p_next(row),
+    ]
+    return "| " + " | ".join(cells) + " |"
+
+
+def main(path: str) -> None:
+    with open(path, encoding="utf-8") as f:
+        rows = [r for r in csv.DictReader(f) if r["status"] != "reference"]
+    print(HEADER)
+    for row in rows:
+        print(markdown_row(row))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else os.path.join(HERE, "darwin_leaderboard.csv"))
