@@ -5,17 +5,16 @@ r"""Time to score an exported policy: trial by trial, as before batching, agains
       [--seeds=50] [--steps=100] [--repeats=2]
 
 In one process, the same trials (`--seeds` test seeds of `--tier`, `--steps` control steps)
-of a shipped exported policy (`selected_policy.npz`) are scored three ways:
+of a shipped exported policy (`selected_policy.npz`) are scored two ways:
 
   * one by one, as `score_policy` scored every policy before batching: one policy call
     per trial and control step, the gait-quality inputs read by four accessors after each
     physics step (`score.step_policy` with `record=score._record`);
-  * batched in one thread: `score.batched_policy_trials` (one `act_batch` call per control
-    step for all trials, the inputs recorded inside the substep loop);
-  * batched in two threads (the trials' physics stepped in parallel).
+  * batched: `score.batched_policy_trials` (one `act_batch` call per control step for all
+    trials, the inputs recorded inside the substep loop).
 
 It prints each wall time (the best of `--repeats`) and the speed-ups over the first, and
-checks that the three give the same distances and failures. Absolute times are noisy on a
+checks that the two give the same distances and failures. Absolute times are noisy on a
 shared machine; the ratios, measured in one run, are the figures to compare.
 """
 
@@ -83,10 +82,10 @@ def one_by_one(policy, settings: BenchPolicyScoreSettings, seeds: list[int]) -> 
     return results
 
 
-def batched(policy, settings: BenchPolicyScoreSettings, seeds: list[int], threads: int):
+def batched(policy, settings: BenchPolicyScoreSettings, seeds: list[int]) -> list[tuple]:
     """The trials scored in a batch; their (distance, failure step) pairs."""
     trials = score.batched_policy_trials(
-        policy, settings.tier, seeds, settings.steps, score.ScoreSettings().task_kwargs(), threads
+        policy, settings.tier, seeds, settings.steps, score.ScoreSettings().task_kwargs()
     )
     return [(t["distance_m"], t["fall_step"]) for t in trials]
 
@@ -107,12 +106,9 @@ def benchmark(settings: BenchPolicyScoreSettings) -> None:
     base, reference = _best(lambda: one_by_one(policy, settings, seeds), settings.repeats)
     print(f"{settings.seeds} trials x {settings.steps} control steps of {settings.tier}")
     print(f"one by one (before batching)   {base:7.2f} s")
-    for threads in (1, 2):
-        wall, result = _best(
-            lambda n=threads: batched(policy, settings, seeds, n), settings.repeats
-        )
-        same = "same trials" if result == reference else "TRIALS DIFFER"
-        print(f"batched, {threads} thread(s)          {wall:7.2f} s  {base / wall:5.2f}x  {same}")
+    wall, result = _best(lambda: batched(policy, settings, seeds), settings.repeats)
+    same = "same trials" if result == reference else "TRIALS DIFFER"
+    print(f"batched                        {wall:7.2f} s  {base / wall:5.2f}x  {same}")
 
 
 def define_flags() -> None:

@@ -23,7 +23,6 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
     cli.without_rendering()
 
-import concurrent.futures
 import dataclasses
 import json
 import math
@@ -451,17 +450,18 @@ def control_step(action, task, physics, n_sub: int, t: int, records: list, recor
 
 
 def batched_policy_trials(
-    policy, tier: str, seeds: list[int], steps: int, task_kwargs: dict, threads: int = 1
+    policy, tier: str, seeds: list[int], steps: int, task_kwargs: dict
 ) -> list[dict]:
     """`policy_trial` for many seeds at once, with one policy call per control step.
 
     For a policy with `reset_batch(n)` and `act_batch(observations)` (observations of n
     trials as (n, ...) arrays → (n, 12) actions), whose rows do not depend on each other
-    (`exported.NumpyPolicy`): each trial then takes the steps `policy_trial` takes, and its
-    result is the same, bit for bit (`tests/test_score.py`). A trial that has ended keeps
-    its row in the batch (its last observation) but is not stepped. The trials' control
-    steps run in `threads` threads (MuJoCo releases the GIL while it steps); each trial is
-    stepped by one thread at a time, so the results do not depend on `threads`.
+    (`exported.NumpyPolicy`, `sb3.TrainedPolicy`): each trial then takes the steps
+    `policy_trial` takes, and its result is the same, bit for bit (`tests/test_score.py`).
+    A trial that has ended keeps its row in the batch (its last observation) but is not
+    stepped. The trials are stepped in this thread: with the policy's and the task's
+    Python holding the GIL, two threads were slower than one on 2 cores
+    (`benchmarks/bench_policy_score.py`).
 
     Returns:
       The trials' results, as `policy_trial`'s, in the order of `seeds`.
@@ -470,22 +470,12 @@ def batched_policy_trials(
     policy.reset_batch(len(trials))
     keys = trials[0].observation.keys()
     active = list(range(len(trials)))
-
-    def step_block(block: list[int], actions: np.ndarray, t: int) -> list[int]:
-        """Control step t of some trials; those still going."""
-        return [i for i in block if not trials[i].step(actions[i], t)]
-
-    with concurrent.futures.ThreadPoolExecutor(max(threads - 1, 1)) as pool:
-        for t in range(steps):
-            observations = {k: np.stack([trial.observation[k] for trial in trials]) for k in keys}
-            actions = policy.act_batch(observations)
-            blocks = [active[k::threads] for k in range(min(threads, len(active)))]
-            # The calling thread steps the first block while the pool steps the others.
-            futures = [pool.submit(step_block, block, actions, t) for block in blocks[1:]]
-            going = step_block(blocks[0], actions, t) + [i for f in futures for i in f.result()]
-            active = sorted(going)
-            if not active:
-                break
+    for t in range(steps):
+        observations = {k: np.stack([trial.observation[k] for trial in trials]) for k in keys}
+        actions = policy.act_batch(observations)
+        active = [i for i in active if not trials[i].step(actions[i], t)]
+        if not active:
+            break
     return [trial.result() for trial in trials]
 
 
@@ -522,8 +512,7 @@ def score_policy(
     Args:
       policy: Maps the task's observation to a (12,) action in [−1, 1]. If it has a
         `reset()` method, that is called before each trial.
-      settings: What to measure (default: every tier, all 50 test seeds; `threads` steps the
-        trials of a batched policy, `batched_policy_trials`).
+      settings: What to measure (default: every tier, all 50 test seeds; `threads` unused).
 
     Returns:
       The card, as `score_gait`.
@@ -545,7 +534,7 @@ def score_policy_trials(
         seeds = protocol.held_out_seeds(settings.seeds)
         if hasattr(policy, "act_batch"):
             trials = batched_policy_trials(
-                policy, tier, seeds, settings.steps, settings.task_kwargs(), settings.threads
+                policy, tier, seeds, settings.steps, settings.task_kwargs()
             )
         else:
             trials = [

@@ -73,9 +73,7 @@ def markdown_row(row: dict) -> str:
         f"({100 * float(row['test_brownout_rate'] or 0):.1f}%)"
     )
     supply = f"{_f(row['supply_current_a'], 1)}, {_f(row['supply_peak_1s_a'], 1)}"
-    tiers = [
-        f"{_f(row[f'{t}_score_m'])}, {100 * float(row[f'{t}_fall_rate']):.0f}%" for t in TIERS
-    ]
+    tiers = [f"{_f(row[f'{t}_score_m'])}, {100 * float(row[f'{t}_fall_rate']):.0f}%" for t in TIERS]
     cells = [
         row["track"],
         _rank(row),
