@@ -417,8 +417,8 @@ def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
         card = card_under(run["summary"], version)
         if darwin and card is not None:
             version_of_card = card.get("benchmark_version", 1)
-            key = (run["task"], run["method"], run["config"], version_of_card)
-            key += (run.get("trained_version"),)
+            trained = run.get("trained_version")
+            key = (run["task"], run["method"], run["config"], version_of_card, trained)
             groups[key].append({**run["summary"], "test": card})
     return _ranked([_darwin_row(key, summaries) for key, summaries in groups.items()])
 

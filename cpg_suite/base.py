@@ -177,19 +177,13 @@ def check_discrete_action(action, spec: specs.DiscreteArray) -> int:
 
 
 # The warnings after which dm_control declares the physics state invalid (PhysicsError).
-_INVALID_WARNINGS = sorted(
+_INVALID_STATE_WARNINGS = list(
     int(w)
     for w in (
         mujoco.mjtWarning.mjWARN_BADQACC,
         mujoco.mjtWarning.mjWARN_BADQVEL,
         mujoco.mjtWarning.mjWARN_BADQPOS,
     )
-)
-# As a slice where they are neighbours (MuJoCo 3: 3, 4, 5): cheaper to index every step.
-_INVALID_STATE_WARNINGS = (
-    slice(_INVALID_WARNINGS[0], _INVALID_WARNINGS[-1] + 1)
-    if _INVALID_WARNINGS == list(range(_INVALID_WARNINGS[0], _INVALID_WARNINGS[-1] + 1))
-    else _INVALID_WARNINGS
 )
 
 

@@ -233,10 +233,7 @@ class SupplyMonitor:
           The 1-based index (among these n) of the first step whose window mean exceeds the
           limit, or 0. After a brown-out the monitor keeps measuring but reports no other.
         """
-        if isinstance(currents, np.ndarray) and currents.dtype == np.float64:
-            values = currents.tolist()  # the hot path: no conversion
-        else:
-            values = np.asarray(currents, dtype=np.float64).tolist()
+        values = np.asarray(currents, dtype=np.float64).tolist()
         total, worst, k = self.total, self.worst, self.steps
         limit = self.limit.current if self.enforce and not self.browned_out else math.inf
         ring, w, first = self._ring, self.window, 0

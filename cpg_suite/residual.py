@@ -234,6 +234,23 @@ class CPGActions(gymnasium.vector.VectorWrapper):
         return {**observations, PHASE_KEY: self.cpg.phase_features()}
 
 
+def batch_features(observations: dict, keys: tuple[str, ...], rows: ModulatedCPG | None):
+    """(n, D) flat features of n trials' observations ((n, ...) arrays) in `keys` order,
+    with the CPG rows' phase features last for the `cpg` action space (`rows` not None):
+    each row the flat observation a policy of one trial reads.
+
+    Args:
+      observations: The trials' observations, stacked per key.
+      keys: The observation keys, in the policy's order.
+      rows: The trials' CPG rows, or None.
+    """
+    parts = [np.asarray(observations[k], dtype=np.float64) for k in keys]
+    parts = [p.reshape(len(p), -1) for p in parts]
+    if rows is not None:
+        parts.append(rows.phase_features())
+    return np.concatenate(parts, axis=1)
+
+
 def joint_actions(cpg_actions, modulated: ModulatedCPG, physics: darwin.Physics, dt: float):
     """One control step of the CPG action space outside a vector env (one row per call).
 

@@ -122,11 +122,9 @@ class NumpyPolicy:
         """(n, 12) actions for n trials' observations ((n, ...) arrays), each row what
         `__call__` gives that trial: the policy's arithmetic is row by row (element-wise,
         `portable.pairwise_matmul`), and so is its CPG's."""
-        parts = [np.asarray(observations[k]) for k in darwin.OBSERVATION_KEYS]
-        parts = [p.reshape(len(p), -1) for p in parts]
-        if self._rows is not None:
-            parts.append(self._rows.phase_features())
-        action = self.act(np.concatenate(parts, axis=1))
+        action = self.act(
+            residual.batch_features(observations, darwin.OBSERVATION_KEYS, self._rows)
+        )
         if self._rows is None:
             return action
         return residual.joint_actions(action, self._rows, self._physics, darwin.CONTROL_TIMESTEP)

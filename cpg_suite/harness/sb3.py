@@ -247,11 +247,8 @@ class TrainedPolicy:
         settings: The run's settings (its action space).
         """
         self.model, self.normalizer, self.settings = model, normalizer, settings
-        self.cpg = None
-        if settings.action_space == "cpg":
-            self.cpg = residual.ModulatedCPG(
-                1, amplitude_scale=settings.amplitude_scale, rate_scale=settings.rate_scale
-            )
+        self.cpg = self._cpg_rows(1)
+        if self.cpg is not None:
             self._physics = cpg_suite.load("darwin_walk").physics
         self.keys = OBS_KEYS + ((residual.PHASE_KEY,) if self.cpg is not None else ())
 
@@ -285,26 +282,26 @@ class TrainedPolicy:
         if self.cpg is not None:
             self.cpg.reset()
 
+    def _cpg_rows(self, rows: int) -> residual.ModulatedCPG | None:
+        """The policy's own CPG, `rows` rows, for the `cpg` action space (else None)."""
+        if self.settings.action_space != "cpg":
+            return None
+        return residual.ModulatedCPG(
+            rows,
+            amplitude_scale=self.settings.amplitude_scale,
+            rate_scale=self.settings.rate_scale,
+        )
+
     def reset_batch(self, rows: int) -> None:
         """Starts `rows` trials stepped together (`act_batch`; `score.batched_policy_trials`)."""
-        self._rows = None
-        if self.cpg is not None:
-            self._rows = residual.ModulatedCPG(
-                rows,
-                amplitude_scale=self.settings.amplitude_scale,
-                rate_scale=self.settings.rate_scale,
-            )
+        self._rows = self._cpg_rows(rows)
 
     def act_batch(self, observations: dict) -> np.ndarray:
         """(n, 12) actions for n trials' observations ((n, ...) arrays), each row what
         `__call__` gives that trial: the network runs one row at a time, as `__call__`
         runs it (a batched torch product may round differently), the normalizer and the
         CPG rows (element-wise) all at once."""
-        parts = [np.asarray(observations[k], dtype=np.float64) for k in OBS_KEYS]
-        parts = [p.reshape(len(p), -1) for p in parts]
-        if self._rows is not None:
-            parts.append(self._rows.phase_features())
-        flat = np.concatenate(parts, axis=1)
+        flat = residual.batch_features(observations, OBS_KEYS, self._rows)
         action = np.concatenate([predict(self.model, self.normalizer, row[None]) for row in flat])
         if self._rows is None:
             return action
