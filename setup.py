@@ -28,7 +28,7 @@ def _readme() -> str:
 _JAX = ">=0.9.2,!=0.10.*,!=0.11.0,<0.12"
 _MJX_COMMON = [
     "mujoco==3.17.*",
-    "mujoco-mjx==3.17.*",
+    "mujoco-mjx[warp]==3.17.*",  # warp: MJX's MuJoCo Warp backend (warp-lang 1.18.0)
     "gymnasium>=1.0,<2",
     "shimmy[dm-control]>=2.0,<3",  # the CPU vector env that benchmarks/bench_mjx.py compares
     "brax>=0.14.2,<0.15",  # PPO on MJX (baselines.ppo_mjx)

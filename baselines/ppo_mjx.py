@@ -53,6 +53,7 @@ import pickle
 import time
 from collections.abc import Callable
 
+import mujoco
 import numpy as np
 from absl import flags
 
@@ -78,7 +79,13 @@ PROGRESS_FIELDS = [
 
 # Settings added after the first runs whose default has changed since, with what a run
 # recorded without them trained on (the others' defaults are still what it trained on).
-BEFORE_ADDED = {"solver_iterations": (), "contacts": "model", "policy_head": "tanh_normal"}
+BEFORE_ADDED = {
+    "solver_iterations": (),
+    "contacts": "model",
+    "policy_head": "tanh_normal",
+    "benchmark_version": 1,  # no supply limit in the MJX env nor in the CPU validations
+}
+_TRAINING = mjx_walk.PHYSICS["training"]  # the defaults below are its parts
 
 
 @dataclasses.dataclass(frozen=True)
@@ -114,6 +121,11 @@ class PPOMJXSettings:
         CPU reference's). Validation and the test card always run on the CPU reference.
       contacts: Contact pairs MJX computes in training (`WalkEnv(contacts=...)`): "model"
         (every pair, the CPU reference's) or "soles" (floor and soles only, faster).
+        With `solver_iterations`, the defaults are `cpg_suite.mjx.PHYSICS["training"]`'s.
+      impl: MJX's backend (`cpg_suite.mjx.IMPLS`): "jax", or "warp" (MuJoCo Warp; on an
+        NVIDIA GPU, the fast one).
+      benchmark_version: The benchmark version trained under: its supply limit holds in
+        the MJX env (a brown-out ends the episode like a fall) and in the CPU validations.
     """
 
     task: str = "darwin_walk"
@@ -142,8 +154,10 @@ class PPOMJXSettings:
     mean_init_scale: float = 0.01  # SB3's gain for the action layer
     policy_layers: tuple[int, ...] = (256, 256)
     value_layers: tuple[int, ...] = (256, 256)
-    solver_iterations: tuple[int, ...] = (100, 8)
-    contacts: str = "soles"
+    solver_iterations: tuple[int, ...] = _TRAINING.solver_iterations
+    contacts: str = _TRAINING.contacts
+    impl: str = "jax"
+    benchmark_version: int = protocol.BENCHMARK_VERSION
 
     def __post_init__(self):
         require = cli.require
@@ -204,6 +218,19 @@ class PPOMJXSettings:
             self.contacts in mjx_walk.CONTACTS,
             f"--contacts must be one of {', '.join(mjx_walk.CONTACTS)}, got {self.contacts!r}",
         )
+        require(
+            self.impl in mjx_walk.IMPLS,
+            f"--impl must be one of {', '.join(mjx_walk.IMPLS)}, got {self.impl!r}",
+        )
+        require(
+            self.benchmark_version in protocol.VERSIONS,
+            f"--benchmark_version must be one of {sorted(protocol.VERSIONS)}, "
+            f"got {self.benchmark_version!r}",
+        )
+
+    def supply(self):
+        """The supply limit trained under (`protocol.supply_limit`; None: unlimited)."""
+        return protocol.supply_limit(self.benchmark_version)
 
     @property
     def num_evals(self) -> int:
@@ -262,7 +289,9 @@ def validate(policy: NumpyPolicy, settings: PPOMJXSettings) -> tuple[float, floa
       (success-weighted distance, m; fall rate; physics steps of the trials).
     """
     trials = [
-        score.policy_trial(policy, settings.task, seed, settings.trial_steps)
+        score.policy_trial(
+            policy, settings.task, seed, settings.trial_steps, {"supply": settings.supply()}
+        )
         for seed in protocol.validation_seeds(settings.validation_seeds)
     ]
     fell = np.array([t["fell"] for t in trials])
@@ -477,17 +506,38 @@ def train(
             seed=settings.seed + 1_000_003 * (len(state["rows"])),
             restore_params=state["params"],
         )
-    walk_env = mjx_walk.WalkEnv(
-        settings.task,
-        settings.action_space,
-        solver_iterations=settings.solver_iterations or None,
-        contacts=settings.contacts,
-    )
-    env = training.BraxWalkEnv(walk_env)
+    env = make_env(settings)
     record.clock = time.perf_counter()
     with training.brax_on_this_jax():
         brax_ppo.train(env, policy_params_fn=record.on_params, **kwargs)
     return record
+
+
+def make_env(settings: PPOMJXSettings):
+    """The Brax env PPO trains on: the training tier on MJX with the settings' physics.
+
+    Returns:
+      A `cpg_suite.mjx.training.BraxWalkEnv`.
+    """
+    from cpg_suite.mjx import training
+
+    walk_env = mjx_walk.WalkEnv(
+        settings.task,
+        settings.action_space,
+        physics="training",
+        impl=settings.impl,
+        solver_iterations=settings.solver_iterations or _model_solver(),
+        contacts=settings.contacts,
+        max_robots=settings.num_envs,
+        supply=settings.supply(),
+    )
+    return training.BraxWalkEnv(walk_env)
+
+
+def _model_solver() -> tuple[int, int]:
+    """The DARwIn-OP model's own solver iterations and line-search iterations (100, 50)."""
+    opt = mujoco.MjModel.from_xml_string(*darwin.get_model_and_assets()).opt
+    return int(opt.iterations), int(opt.ls_iterations)
 
 
 def resume_state(run_dir: str, settings: PPOMJXSettings) -> dict | None:
@@ -653,6 +703,10 @@ def define_flags() -> None:
     )
     flags.DEFINE_string(
         "contacts", d.contacts, f"MJX contact pairs in training: {', '.join(mjx_walk.CONTACTS)}."
+    )
+    flags.DEFINE_string("impl", d.impl, f"MJX backend: {', '.join(mjx_walk.IMPLS)}.")
+    flags.DEFINE_integer(
+        "benchmark_version", d.benchmark_version, "Benchmark version (supply limit) trained under."
     )
     o = runs.RunOptions()
     flags.DEFINE_string("output_dir", o.output_dir, "Root of the output tree.")

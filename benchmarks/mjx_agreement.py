@@ -1,16 +1,20 @@
 r"""A CPG gait (default hand-tuned) in the MJX env and in the CPU reference, from one state.
 
   python benchmarks/mjx_agreement.py [--params=hand_tuned] [--seeds=0-4] [--steps=1000] \
-      [--precisions=64,32] [--solver_iterations=4,8] [--contacts=soles]
+      [--precisions=64,32] [--physics=reference] [--impl=jax] [--solver_iterations=4,8] \
+      [--contacts=soles] [--timestep=0.004]
 
 For each seed, the CPU task `darwin_walk` is reset with it (`evaluation.gait.evaluate_gait`
 runs the trial); its reset state is put into MJX (`WalkEnv.state_from_mujoco`) and the same
 joint-target actions are stepped there, in float64 and in float32 (the precision of GPU
 training). Prints each trial's distance, lateral drift and fall in both, and the largest
 differences; for scale, also the CPU trial from a start moved by 1e-9 rad per leg joint.
-`--solver_iterations=I,L` caps MJX's constraint solver (`WalkEnv(solver_iterations=...)`)
-to see what a cap changes; `--contacts=soles` computes only the floor's and soles' contact
-pairs (`WalkEnv(contacts=...)`). Needs the `mjx` extra; runs on whatever device JAX picks.
+`--physics` names the MJX physics (`walk.PHYSICS`: "reference" or "training", which runs in
+float32 only) and `--impl` MJX's backend ("jax" or "warp", float32 only); the three flags
+after them override the physics' parts: `--solver_iterations=I,L` caps MJX's constraint
+solver, `--contacts=soles` computes only the floor's and soles' contact pairs and
+`--timestep` sets the physics step (s; the control step stays 16 ms). Needs the `mjx`
+extra; runs on whatever device JAX picks.
 """
 
 from __future__ import annotations
@@ -47,30 +51,49 @@ class AgreementSettings:
       seeds: Initial-state seeds of the CPU task: `N`, `A-B` or a comma list.
       steps: Control steps per trial.
       precisions: MJX float widths to run, comma-separated (64 and/or 32).
+      physics: The MJX physics (`walk.PHYSICS`).
+      impl: MJX's backend (`walk.IMPLS`).
       solver_iterations: `I,L`: MJX's solver and line-search iteration caps ("": the
-        model's own, as the CPU reference).
-      contacts: MJX's contact pairs (`walk.CONTACTS`; "model": every pair, as the CPU).
+        physics' own).
+      contacts: MJX's contact pairs (`walk.CONTACTS`; "": the physics' own).
+      timestep: The physics step, s ("": the physics' own).
     """
 
     params: str = "hand_tuned"
     seeds: str = "0-4"
     steps: int = 1000
     precisions: str = "64,32"
+    physics: str = "reference"
+    impl: str = "jax"
     solver_iterations: str = ""
-    contacts: str = "model"
+    contacts: str = ""
+    timestep: str = ""
 
     def __post_init__(self):
         parse_params(self.params)  # a preset or a readable file of amplitudes
         cli.parse_seeds(self.seeds)
         cli.require(
-            self.contacts in walk.CONTACTS,
-            f"--contacts must be one of {', '.join(walk.CONTACTS)}, got {self.contacts!r}",
+            self.physics in walk.PHYSICS,
+            f"--physics must be one of {', '.join(walk.PHYSICS)}, got {self.physics!r}",
+        )
+        cli.require(
+            self.impl in walk.IMPLS,
+            f"--impl must be one of {', '.join(walk.IMPLS)}, got {self.impl!r}",
+        )
+        cli.require(
+            self.contacts in ("", *walk.CONTACTS),
+            f"--contacts must be one of {', '.join(walk.CONTACTS)} or empty, got {self.contacts!r}",
         )
         self.solver_caps()
+        self.physics_step()
         cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
         cli.require(
             set(self.precision_list()) <= set(_PRECISIONS) and self.precision_list(),
             f"--precisions must name 64 and/or 32, got {self.precisions!r}",
+        )
+        cli.require(
+            self.precision_list() == [32] or (self.impl == "jax" and self.physics == "reference"),
+            f"--impl={self.impl} --physics={self.physics} runs in float32 only: --precisions=32",
         )
 
     def solver_caps(self) -> tuple[int, int] | None:
@@ -91,18 +114,38 @@ class AgreementSettings:
         )
         return int(parts[0]), int(parts[1])
 
+    def physics_step(self) -> float | None:
+        """The physics step, s, parsed (None: the physics' own).
+
+        Raises:
+          ValueError: Unless `timestep` is empty or a positive number.
+        """
+        if not self.timestep:
+            return None
+        try:
+            value = float(self.timestep)
+        except ValueError:
+            value = 0.0
+        cli.require(value > 0, f"--timestep must be a positive number of s, got {self.timestep!r}")
+        return value
+
+    def env_kwargs(self) -> dict:
+        """`walk.WalkEnv`'s physics arguments."""
+        return {
+            "physics": self.physics,
+            "impl": self.impl,
+            "solver_iterations": self.solver_caps(),
+            "contacts": self.contacts or None,
+            "timestep": self.physics_step(),
+        }
+
     def precision_list(self) -> list[int]:
         """The float widths, parsed (unparseable entries become 0, which fails the check)."""
         return [int(p) if p.strip().isdigit() else 0 for p in self.precisions.split(",")]
 
 
 def mjx_trials(
-    amplitudes: np.ndarray,
-    seeds: list[int],
-    steps: int,
-    x64: bool,
-    solver_iterations: tuple[int, int] | None = None,
-    contacts: str = "model",
+    amplitudes: np.ndarray, seeds: list[int], steps: int, x64: bool, env_kwargs: dict
 ) -> list[dict]:
     """A gait in MJX from the CPU task's reset state for each seed.
 
@@ -111,8 +154,7 @@ def mjx_trials(
       seeds: The CPU task's seeds.
       steps: Control steps.
       x64: float64 physics (else float32).
-      solver_iterations: MJX's solver caps (None: the model's own).
-      contacts: MJX's contact pairs (`walk.CONTACTS`).
+      env_kwargs: `walk.WalkEnv`'s physics arguments (`AgreementSettings.env_kwargs`).
 
     Returns:
       Per seed, as `walk.trial_result`, plus `seconds` (wall time; the first trial's
@@ -121,7 +163,7 @@ def mjx_trials(
     targets = cpg.trajectories(amplitudes, steps, darwin.CONTROL_TIMESTEP)
     results = []
     with jax.enable_x64(x64):
-        env = walk.WalkEnv("darwin_walk", solver_iterations=solver_iterations, contacts=contacts)
+        env = walk.WalkEnv("darwin_walk", max_robots=1, **env_kwargs)
         run = jax.jit(functools.partial(walk.rollout, env))
         for seed in seeds:
             start = time.perf_counter()
@@ -182,14 +224,7 @@ def compare(settings: AgreementSettings) -> list[dict]:
     seeds = cli.parse_seeds(settings.seeds)
     amplitudes = parse_params(settings.params)
     mjx = {
-        bits: mjx_trials(
-            amplitudes,
-            seeds,
-            settings.steps,
-            bits == 64,
-            settings.solver_caps(),
-            settings.contacts,
-        )
+        bits: mjx_trials(amplitudes, seeds, settings.steps, bits == 64, settings.env_kwargs())
         for bits in settings.precision_list()
     }
     keys = ("distance_m", "lateral_m", "fall_step")
@@ -221,10 +256,17 @@ def define_flags() -> None:
     flags.DEFINE_string("seeds", d.seeds, "Seeds of the CPU task: N, A-B or a comma list.")
     flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")
     flags.DEFINE_string("precisions", d.precisions, "MJX float widths: 64 and/or 32.")
+    flags.DEFINE_string("physics", d.physics, f"MJX physics: {', '.join(walk.PHYSICS)}.")
+    flags.DEFINE_string("impl", d.impl, f"MJX backend: {', '.join(walk.IMPLS)}.")
     flags.DEFINE_string(
-        "solver_iterations", d.solver_iterations, "I,L: MJX solver caps (default the model's)."
+        "solver_iterations", d.solver_iterations, "I,L: MJX solver caps (default the physics')."
     )
-    flags.DEFINE_string("contacts", d.contacts, f"MJX contact pairs: {', '.join(walk.CONTACTS)}.")
+    flags.DEFINE_string(
+        "contacts",
+        d.contacts,
+        f"MJX contact pairs: {', '.join(walk.CONTACTS)} (default: the physics').",
+    )
+    flags.DEFINE_string("timestep", d.timestep, "Physics step, s (default the physics').")
 
 
 def main(argv: list[str]) -> None:

@@ -21,7 +21,7 @@ from brax.training.acme import running_statistics
 from brax.training.agents.ppo import networks as ppo_networks
 
 from baselines import ppo_mjx
-from cpg_suite import cli
+from cpg_suite import cli, electrical
 from cpg_suite.mjx import training
 from cpg_suite.mjx import walk as mjx_walk
 
@@ -200,6 +200,8 @@ def test_validation_keeps_the_best_policy_and_checkpoints(tmp_path):
         (dict(contacts="feet"), "--contacts"),
         (dict(policy_head="beta"), "--policy_head"),
         (dict(init_noise_std=0.0), "--init_noise_std"),
+        (dict(impl="cuda"), "--impl"),
+        (dict(benchmark_version=9), "--benchmark_version"),
     ],
 )
 def test_settings_reject_bad_values(kw, words):
@@ -370,6 +372,18 @@ def test_solver_caps_are_parsed():
     assert _settings().solver_iterations == (100, 8)
     assert _settings(solver_iterations=[]).solver_iterations == ()  # the model's own
     assert _settings(solver_iterations=["4", "8"]).solver_iterations == (4, 8)
+
+
+def test_training_env_has_the_training_physics_and_the_versions_supply():
+    """PPO trains on `PHYSICS["training"]` by default, with its benchmark version's supply
+    limit in the MJX env; version 1 (the study's unlimited supply) has none."""
+    env = ppo_mjx.make_env(_settings()).env
+    training_physics = mjx_walk.PHYSICS["training"]
+    assert env.physics == training_physics and env.impl == "jax"
+    assert env.supply == electrical.DEFAULT_SUPPLY
+    assert ppo_mjx.make_env(_settings(benchmark_version=1)).env.supply is None
+    reference_solver = ppo_mjx.make_env(_settings(solver_iterations=[])).env.mj_model.opt
+    assert (reference_solver.iterations, reference_solver.ls_iterations) == (100, 50)
 
 
 def test_brax_gets_device_put_replicated_for_the_call_only():

@@ -9,6 +9,11 @@ dozen control steps (docs/architecture.md#the-mjx-path). `forward` and `step` he
 `mjx.forward` and `mjx.step`, built from MJX's public stages in MJX's order, with the
 box-plane contacts recomputed as MuJoCo C computes them after `mjx.collision`. Everything
 else is MJX's own.
+
+On MJX's Warp backend (`mjx.put_model(..., impl="warp")`), `forward` and `step` are MJX's
+own: MuJoCo Warp's box-plane routine keeps every corner within the margin, as MuJoCo C's
+does for a sole resting on the floor, and its contacts are a list that grows with the
+corners found, not fixed slots (`tests/test_mjx_warp.py` compares its steps with the CPU's).
 """
 
 from __future__ import annotations
@@ -91,8 +96,13 @@ def fwd_position(m: mjx.Model, d: mjx.Data) -> mjx.Data:
     return mjx.transmission(m, d)
 
 
+def is_warp(m: mjx.Model) -> bool:
+    """Whether `m` was put on MJX's Warp backend (`mjx.put_model(..., impl="warp")`)."""
+    return m.impl == mjx.Impl.WARP
+
+
 def forward(m: mjx.Model, d: mjx.Data) -> mjx.Data:
-    """`mjx.forward` with MuJoCo C's box-plane contacts.
+    """`mjx.forward` with MuJoCo C's box-plane contacts (on Warp: `mjx.forward`).
 
     Args:
       m: The MJX model.
@@ -101,6 +111,8 @@ def forward(m: mjx.Model, d: mjx.Data) -> mjx.Data:
     Returns:
       The data with positions, velocities, accelerations and sensors computed.
     """
+    if is_warp(m):
+        return mjx.forward(m, d)
     d = fwd_position(m, d)
     d = mjx.sensor_pos(m, d)
     d = mjx.fwd_velocity(m, d)
@@ -114,7 +126,7 @@ def forward(m: mjx.Model, d: mjx.Data) -> mjx.Data:
 
 
 def step(m: mjx.Model, d: mjx.Data) -> mjx.Data:
-    """`mjx.step` with MuJoCo C's box-plane contacts (implicit-fast integrator).
+    """`mjx.step` with MuJoCo C's box-plane contacts (implicit-fast; on Warp: `mjx.step`).
 
     Args:
       m: The MJX model (its integrator must be implicit-fast, the DARwIn-OP model's).
@@ -126,6 +138,8 @@ def step(m: mjx.Model, d: mjx.Data) -> mjx.Data:
     Raises:
       NotImplementedError: For another integrator.
     """
+    if is_warp(m):
+        return mjx.step(m, d)
     if m.opt.integrator != mjx.IntegratorType.IMPLICITFAST:
         raise NotImplementedError(f"only the implicit-fast integrator, got {m.opt.integrator}")
     return mjx.implicit(m, forward(m, d))

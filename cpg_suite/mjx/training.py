@@ -155,7 +155,17 @@ class FreshResetWrapper(brax_wrappers.Wrapper):
 
 
 def _where_done(done: jax.Array, fresh, current):
+    """Per environment, `fresh` where `done` else `current`.
+
+    A leaf without the batch's leading axis is shared by the batch and kept from `current`:
+    on MJX's Warp backend the contact list and its counters are one for all robots, and the
+    next step recomputes them (`mjx.Data.where` keeps them the same way).
+    """
+    batch = done.shape[0]
+
     def pick(x, y):
+        if x.ndim == 0 or x.shape[0] != batch:
+            return y
         return jnp.where(jnp.reshape(done > 0, (-1,) + (1,) * (x.ndim - 1)), x, y)
 
     return jax.tree.map(pick, fresh, current)

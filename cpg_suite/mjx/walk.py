@@ -51,6 +51,41 @@ ACTION_SPACES = residual.ACTION_SPACES
 # Contact pairs MJX computes: "model", every pair of the MJCF (the CPU reference's);
 # "soles", only the pairs among the floor and the two soles (`sole_contacts_only`).
 CONTACTS = ("model", "soles")
+# MJX's backends: "jax" (MJX's own JAX code, any JAX device) and "warp" (MuJoCo Warp through
+# JAX's FFI: an NVIDIA GPU, or the CPU through Warp's CPU device; float32 always).
+IMPLS = ("jax", "warp")
+
+
+class PhysicsSettings(NamedTuple):
+    """A named set of physics choices of the MJX env (`PHYSICS`).
+
+    Attributes:
+      contacts: Contact pairs computed (`CONTACTS`).
+      solver_iterations: `(iterations, line-search iterations)` caps of the constraint
+        solver, or None for the model's own (100, 50).
+      timestep: The physics step, s, or None for the model's own (2 ms); the control step
+        stays `darwin.CONTROL_TIMESTEP`, which it must divide.
+      float32: Whether the physics must run in float32 (JAX's default; x64 refused).
+    """
+
+    contacts: str
+    solver_iterations: tuple[int, int] | None
+    timestep: float | None
+    float32: bool
+
+
+# "reference": the CPU task's physics (every contact pair, the model's solver, 2 ms steps;
+# float64 under `jax.enable_x64`, as the agreement tests run it). "training": what the GPU
+# trainers step, chosen in docs/decisions.md#the-training-physics from the gaps measured in
+# results/mjx/README.md#the-training-physics (feet-only contacts as MuJoCo Playground's OP3,
+# the line search capped, float32). Scores always come from the CPU reference.
+PHYSICS = {
+    "reference": PhysicsSettings("model", None, None, False),
+    "training": PhysicsSettings("soles", (100, 8), None, True),
+}
+# Contacts MuJoCo Warp may hold per robot, as a multiple of MJX-JAX's fixed slots for the
+# same pairs (Warp's box-box routine can return up to 8 points where MJX keeps 4).
+_WARP_CONTACTS_PER_SLOT = 2
 OBSERVATION_KEYS = darwin.OBSERVATION_KEYS
 OBSERVATION_SIZES = {k: n for k, n in zip(OBSERVATION_KEYS, (12, 12, 4, 1, 3, 3, 3, 2))}
 PHASE_SIZE = 2  # cos φ_L, sin φ_L appended in the `cpg` action space.
@@ -124,8 +159,12 @@ class WalkEnv:
         randomization: perturbations.Randomization | None = None,
         pushes: perturbations.Pushes | None = None,
         config: cpg.CPGConfig | None = None,
+        physics: str = "reference",
+        impl: str = "jax",
         solver_iterations: tuple[int, int] | None = None,
-        contacts: str = "model",
+        contacts: str | None = None,
+        timestep: float | None = None,
+        max_robots: int = 8192,
         supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
     ):
         """Builds the MJX model; call under `jax.enable_x64(True)` for float64 physics.
@@ -138,32 +177,51 @@ class WalkEnv:
             `perturbations.Randomization()`); ignored by the other tiers.
           pushes: Pushes of `darwin_walk_push` (default `perturbations.Pushes()`).
           config: CPG constants of the `cpg` action space and of the default posture.
+          physics: A named physics of `PHYSICS`: "reference" (the CPU task's) or
+            "training" (what the GPU trainers step). The three arguments below override
+            its parts one by one, for measurements.
+          impl: MJX's backend (`IMPLS`): "jax" or "warp" (needs `warp-lang`, the `mjx`
+            extra's; float32).
           solver_iterations: `(iterations, line-search iterations)` caps of MJX's
-            constraint solver. None keeps the model's (100, 50), the CPU reference's. Under
+            constraint solver; None keeps the physics' own (the reference's: the model's
+            100 / 50). Under
             `vmap` every robot pays for the full line search and for the slowest robot's
             iterations, so caps are much faster on a GPU (results/mjx); MuJoCo C on this
             model needs about 1.2-1.4 solver iterations per step and up to 7 line-search
             evaluations, sampled once per control step (`benchmarks/solver_stats.py`;
             not the same unit as MJX's line-search iterations).
             `benchmarks/mjx_agreement.py --solver_iterations` measures what a cap changes.
-          contacts: "model" computes every contact pair of the MJCF, as the CPU reference
-            does; "soles" only the pairs among the floor and the soles
+          contacts: None keeps the physics' own; "model" computes every contact pair of
+            the MJCF, as the CPU reference does; "soles" only the pairs among the floor and
+            the soles
             (`sole_contacts_only`): the same physics as long as nothing else touches
             (`benchmarks/contact_census.py` measures how long that is in the reference),
             and about a seventh of the constraint rows, which MJX computes for every
             pair whether it touches or not.
+          timestep: The physics step, s (None: the physics' own); it must divide the
+            16 ms control step.
+          max_robots: On Warp, the most robots one batched call steps: Warp holds one list
+            of contacts for the whole batch, sized for this many robots (a larger batch
+            drops contacts). Unused by "jax".
+          supply: The supply limit enforced (None: the study's unlimited supply).
 
         Raises:
-          ValueError: On an unknown task, action space or contacts, a bad posture or solver
-            caps.
+          ValueError: On an unknown task, action space, physics, backend or contacts, a bad
+            posture, solver caps, timestep or `max_robots`, or float32 physics under x64.
         """
         if task_id not in TASKS:
             raise ValueError(f"unknown MJX task {task_id!r}; valid: {', '.join(TASKS)}")
         if action_space not in ACTION_SPACES:
             raise ValueError(f"action_space must be one of {ACTION_SPACES}, got {action_space!r}")
-        if contacts not in CONTACTS:
-            raise ValueError(f"contacts must be one of {CONTACTS}, got {contacts!r}")
-        self.task_id, self.action_space, self.contacts = task_id, action_space, contacts
+        self.physics = _physics_settings(physics, contacts, solver_iterations, timestep)
+        if impl not in IMPLS:
+            raise ValueError(f"impl must be one of {IMPLS}, got {impl!r}")
+        if isinstance(max_robots, bool) or not isinstance(max_robots, int) or max_robots < 1:
+            raise ValueError(f"max_robots must be an integer ≥ 1, got {max_robots!r}")
+        if self.physics.float32 and jnp.zeros(()).dtype != jnp.float32:
+            raise ValueError(f"the {physics!r} physics runs in float32: build it with x64 off")
+        self.task_id, self.action_space, self.impl = task_id, action_space, impl
+        self.contacts = self.physics.contacts
         self.config = config or cpg.CPGConfig()
         posture = self.config.offsets() if posture is None else np.asarray(posture, float)
         if posture.shape != (12,) or not np.all(np.isfinite(posture)):
@@ -175,13 +233,12 @@ class WalkEnv:
         )
         self.pushes = (pushes or perturbations.Pushes()) if task_id == "darwin_walk_push" else None
         self.init_noise = self.randomization.init_noise if randomized else darwin.INIT_NOISE
-        self.mj_model = mujoco.MjModel.from_xml_string(*darwin.get_model_and_assets())
-        if solver_iterations is not None:
-            opt = self.mj_model.opt
-            opt.iterations, opt.ls_iterations = _solver_caps(solver_iterations)
-        if contacts == "soles":
-            sole_contacts_only(self.mj_model)
-        self.model = mjx.put_model(self.mj_model)
+        self.mj_model = self._physics_model(self.physics)
+        self._jax_model = mjx.put_model(self.mj_model)  # also `setconst`'s on Warp
+        self.model = self._jax_model
+        if impl == "warp":
+            self.model = mjx.put_model(self.mj_model, impl="warp")
+            self._warp_data = self._warp_template(max_robots)
         self._layout(self.mj_model)
         self.n_substeps = darwin.physics_steps_per_control_step(self.mj_model)
         self.supply = supply
@@ -190,6 +247,33 @@ class WalkEnv:
         self._limit = limit.current
         self.nominal_amplitudes = cpg.amplitudes_from("hand_tuned")
         self._data_shapes = None  # `mjx.step`'s output types, found on first use
+
+    @staticmethod
+    def _physics_model(settings: PhysicsSettings) -> mujoco.MjModel:
+        """The DARwIn-OP model with a physics' contacts, solver caps and timestep."""
+        m = mujoco.MjModel.from_xml_string(*darwin.get_model_and_assets())
+        if settings.solver_iterations is not None:
+            m.opt.iterations, m.opt.ls_iterations = settings.solver_iterations
+        if settings.contacts == "soles":
+            sole_contacts_only(m)
+        if settings.timestep is not None:
+            m.opt.timestep = settings.timestep
+        return m
+
+    def _warp_template(self, max_robots: int) -> mjx.Data:
+        """A Warp data whose contact list holds `max_robots` robots' contacts.
+
+        Each robot gets `_WARP_CONTACTS_PER_SLOT` times the contact slots MJX-JAX gives
+        the same pairs, and as many times its constraint rows.
+        """
+        jax_data = mjx.make_data(self._jax_model)
+        slots = jax_data._impl.contact.dist.shape[0]
+        self.warp_contacts_per_robot = _WARP_CONTACTS_PER_SLOT * slots
+        self.warp_naconmax = self.warp_contacts_per_robot * max_robots
+        self.warp_njmax = _WARP_CONTACTS_PER_SLOT * jax_data._impl.efc_J.shape[0]
+        return mjx.make_data(
+            self.mj_model, impl="warp", naconmax=self.warp_naconmax, njmax=self.warp_njmax
+        )
 
     def _layout(self, m: mujoco.MjModel) -> None:
         """Addresses looked up by name, as `darwin.Physics` does."""
@@ -320,11 +404,29 @@ class WalkEnv:
         Returns:
           The episode's model.
         """
-        m = self.model
+        m = self._with_params(self.model, params)
+        if invweights is None:
+            invweights = self.invweights(params)
+        return m.replace(
+            body_invweight0=invweights[0].astype(m.body_invweight0.dtype),
+            dof_invweight0=invweights[1].astype(m.dof_invweight0.dtype),
+        )
+
+    def invweights(self, params: EpisodeParams) -> tuple[jax.Array, jax.Array]:
+        """`(body_invweight0, dof_invweight0)` of the model with an episode's parameters.
+
+        Computed by `setconst.invweights` on the JAX backend's model (on Warp too: the
+        arrays are backend-independent).
+        """
+        m = setconst.invweights(self._with_params(self._jax_model, params))
+        return m.body_invweight0, m.dof_invweight0
+
+    def _with_params(self, m: mjx.Model, params: EpisodeParams) -> mjx.Model:
+        """`m` with an episode's servo, joint, friction and torso parameters."""
         kp = params.servo_gain
         torso = self._torso
         com_shift = jnp.concatenate([params.torso_com_shift, jnp.zeros(1)])
-        m = m.replace(
+        return m.replace(
             actuator_gainprm=m.actuator_gainprm.at[:, 0].set(kp),
             actuator_biasprm=m.actuator_biasprm.at[:, 1].set(-kp),
             actuator_forcerange=jnp.stack(
@@ -337,9 +439,6 @@ class WalkEnv:
             body_inertia=m.body_inertia.at[torso].multiply(params.torso_mass_scale),
             body_ipos=m.body_ipos.at[torso].add(com_shift),
         )
-        if invweights is None:
-            return setconst.invweights(m)
-        return m.replace(body_invweight0=invweights[0], dof_invweight0=invweights[1])
 
     # Reset and step.
     def reset(self, key: jax.Array) -> State:
@@ -385,7 +484,7 @@ class WalkEnv:
           The robot at rest, torso upright at the origin, lowest sole corner on the floor,
           after a forward pass with actuation off.
         """
-        data = mjx.make_data(model)
+        data = self._warp_data if self.impl == "warp" else mjx.make_data(model)
         q = jnp.asarray(model.qpos0)
         q = q.at[self._leg_qpos].set(leg_angles).at[self._arm_qpos].set(darwin.ARM_POSE)
         r = self._root_qpos
@@ -524,7 +623,14 @@ class WalkEnv:
         Returns:
           The state, with `obs` computed from it.
         """
-        mjx_data = mjx.put_data(self.mj_model, data)
+        if self.impl == "warp":  # Warp's `put_data` runs `mj_kinematics` on what it is given
+            own = mujoco.MjData(self.mj_model)
+            mujoco.mj_copyData(own, self.mj_model, getattr(data, "ptr", data))  # dm_control's
+            mjx_data = mjx.put_data(
+                self.mj_model, own, impl="warp", naconmax=self.warp_naconmax, njmax=self.warp_njmax
+            )
+        else:
+            mjx_data = mjx.put_data(self.mj_model, data)
         # `put_data` gives some integer fields another width than `mjx.step` returns.
         if self._data_shapes is None:
             self._data_shapes = jax.eval_shape(physics.step, self.model, mjx_data)
@@ -604,6 +710,26 @@ def trial_result(out: dict, start: np.ndarray) -> dict:
         "fall_step": last + 1 if fell.any() else None,
         "return": float(np.sum(np.asarray(out["reward"])[: last + 1])),
     }
+
+
+def _physics_settings(name, contacts, solver_iterations, timestep) -> PhysicsSettings:
+    """`PHYSICS[name]` with the given parts replaced (None keeps its own), or ValueError."""
+    if name not in PHYSICS:
+        raise ValueError(f"physics must be one of {tuple(PHYSICS)}, got {name!r}")
+    settings = PHYSICS[name]
+    if contacts is not None:
+        if contacts not in CONTACTS:
+            raise ValueError(f"contacts must be one of {CONTACTS}, got {contacts!r}")
+        settings = settings._replace(contacts=contacts)
+    if solver_iterations is not None:
+        settings = settings._replace(solver_iterations=_solver_caps(solver_iterations))
+    if timestep is not None:
+        steps = darwin.CONTROL_TIMESTEP / timestep if timestep > 0 else 0.0
+        if not (steps >= 1 and abs(steps - round(steps)) < 1e-9):
+            control = darwin.CONTROL_TIMESTEP
+            raise ValueError(f"timestep must divide the {control} s control step, got {timestep!r}")
+        settings = settings._replace(timestep=float(timestep))
+    return settings
 
 
 def _solver_caps(value) -> tuple[int, int]:
