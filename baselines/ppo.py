@@ -79,6 +79,8 @@ class PPOSettings:
         sub-environment).
       log_std_init: Initial log standard deviation of the Gaussian policy.
       net_arch: Hidden layers of the policy and of the value network (separate).
+      benchmark_version: The benchmark version trained under: its supply limit holds in
+        the training and validation envs (a brown-out ends the episode like a fall).
     """
 
     task: str = "darwin_walk"
@@ -105,6 +107,7 @@ class PPOSettings:
     max_grad_norm: float = 0.5
     log_std_init: float = -1.0
     net_arch: tuple[int, ...] = (256, 256)
+    benchmark_version: int = protocol.BENCHMARK_VERSION
 
     def __post_init__(self):
         require = cli.require
@@ -154,6 +157,11 @@ class PPOSettings:
             f"--net_arch must be positive layer sizes, got {self.net_arch!r}",
         )
         object.__setattr__(self, "net_arch", arch)
+        require(
+            self.benchmark_version in protocol.VERSIONS,
+            f"--benchmark_version must be one of {sorted(protocol.VERSIONS)}, "
+            f"got {self.benchmark_version!r}",
+        )
 
     @property
     def rollout_steps(self) -> int:
@@ -270,6 +278,9 @@ def define_flags() -> None:
     flags.DEFINE_integer("total_steps", d.total_steps, "Training env steps (whole rollouts).")
     flags.DEFINE_integer("num_envs", d.num_envs, "Sub-environments stepped together.")
     flags.DEFINE_integer("seed", d.seed, "Seed of the network, sampling and training seeds.")
+    flags.DEFINE_integer(
+        "benchmark_version", d.benchmark_version, "Benchmark version (supply limit) trained under."
+    )
     flags.DEFINE_integer("trial_steps", d.trial_steps, "Control steps per episode (1000 = 16 s).")
     flags.DEFINE_integer(
         "validation_every", d.validation_every, "Env steps between validations and checkpoints."

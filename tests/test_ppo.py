@@ -12,7 +12,7 @@ import pytest
 import cpg_suite
 from analysis import leaderboard, report
 from baselines import ppo
-from cpg_suite import cpg, darwin, protocol, residual, vector
+from cpg_suite import cpg, darwin, electrical, protocol, residual, vector
 from cpg_suite.harness import checkpoints, learner, runs, sb3
 from cpg_suite.protocol import score
 
@@ -84,6 +84,18 @@ def test_phase_rate_correction():
     assert advance == pytest.approx([1.5 * nominal, 0.5 * nominal])
     phase = modulated.left_phase()
     assert np.array_equal(modulated.phase_features(), np.stack([np.cos(phase), np.sin(phase)], 1))
+
+
+def test_the_envs_hold_the_benchmark_versions_supply_limit():
+    """Version 2 (the default) trains under the supply's limit; version 1, the study's
+    unlimited supply, computes the current without enforcing it."""
+    for version, limit in ((2, electrical.DEFAULT_SUPPLY), (1, None)):
+        env = sb3.make_vector_env(_settings(benchmark_version=version), 1, threads=1)
+        env.reset(seed=0)
+        assert [e.task.supply_limit for e in env.envs] == [limit]
+        assert env.envs[0].task.supply.enforce is (limit is not None)
+    with pytest.raises(ValueError, match="--benchmark_version"):
+        _settings(benchmark_version=7)
 
 
 def test_cpg_wrapper_with_zero_actions_walks_the_hand_tuned_gait():

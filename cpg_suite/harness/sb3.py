@@ -40,7 +40,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 import cpg_suite
-from cpg_suite import darwin, residual, vector
+from cpg_suite import darwin, protocol, residual, vector
 
 # The SB3 algorithm of each policy learner's method name (its run directories' second level).
 ALGORITHMS = {"ppo": "PPO"}
@@ -68,6 +68,9 @@ class EnvSettings(Protocol):
     @property
     def rate_scale(self) -> float: ...  # cpg: phase rate ω (1 + rate_scale · a)
 
+    @property
+    def benchmark_version(self) -> int: ...  # its supply limit holds in the envs
+
 
 # Environments.
 def make_vector_env(
@@ -82,8 +85,9 @@ def make_vector_env(
       task: The tier (None: `settings.task`).
 
     Returns:
-      `DarwinVectorEnv` with same-step autoreset and episodes of `trial_steps`, wrapped in
-      the CPG action space for `action_space="cpg"`.
+      `DarwinVectorEnv` with same-step autoreset and episodes of `trial_steps` under the
+      supply limit of the settings' benchmark version, wrapped in the CPG action space for
+      `action_space="cpg"`.
     """
     env = vector.DarwinVectorEnv(
         task or settings.task,
@@ -91,6 +95,7 @@ def make_vector_env(
         threads=threads,
         autoreset_mode=AutoresetMode.SAME_STEP,
         time_limit=settings.trial_steps * darwin.CONTROL_TIMESTEP,
+        supply=protocol.supply_limit(settings.benchmark_version),
     )
     if settings.action_space == "cpg":
         env = residual.CPGActions(
