@@ -12,6 +12,8 @@ kernels once per machine (about a minute, cached in ~/.cache/warp); a step compi
 seconds after that.
 """
 
+import os
+
 import numpy as np
 import pytest
 
@@ -24,7 +26,7 @@ pytest.importorskip("warp")
 import jax.numpy as jnp  # noqa: E402
 
 import cpg_suite  # noqa: E402
-from cpg_suite import cpg, darwin, electrical, perturbations  # noqa: E402
+from cpg_suite import cpg, darwin, electrical, perturbations, residual  # noqa: E402
 from cpg_suite.mjx import training, walk  # noqa: E402
 
 SEED = 3  # CPU task seed of the comparisons.
@@ -131,6 +133,23 @@ def test_warp_episode_parameters_and_pushes_act_as_on_the_cpu(warp):
         np.testing.assert_allclose(state.reward, ts.reward, atol=10 * REWARD_ATOL)
 
 
+def test_warp_cpg_action_space_matches_cpu():
+    """The CPG-modulating actions reach Warp's physics as the CPU wrapper's reach the task."""
+    env = walk.WalkEnv("darwin_walk", "cpg", impl="warp", max_robots=1)
+    step = jax.jit(env.step)
+    cpu, _ = _cpu_env()
+    physics = cpu.physics
+    state = env.state_from_mujoco(physics.data)
+    rows = residual.ModulatedCPG(1)
+    for a in np.random.default_rng(2).uniform(-1, 1, (20, residual.N_ACTIONS)):
+        joint_actions = residual.joint_actions(a[None], rows, physics, darwin.CONTROL_TIMESTEP)
+        ts = cpu.step(joint_actions[0])
+        state = step(state, a)
+        _assert_close_per_reading(state.obs, _flat(ts.observation))
+        # The CPG's phase in float32 (JAX's default here): 1.1e-6 off after 20 steps.
+        np.testing.assert_allclose(state.obs[40:], rows.phase_features()[0], atol=1e-5)
+
+
 def test_warp_resets_are_the_jax_backends(warp):
     """The same keys draw the same episodes on both backends; the standing poses agree to
     float32 roundoff. The first accelerometer and touch readings may not: the lowest sole
@@ -211,3 +230,33 @@ def test_the_training_physics_is_its_named_parts():
     assert env.n_substeps == round(darwin.CONTROL_TIMESTEP / opt.timestep)
     # 12 MJX-JAX slots for the floor's and soles' pairs, twice that on Warp.
     assert env.warp_contacts_per_robot == 24
+
+
+def test_ppo_trains_on_warp_and_validates_on_the_cpu(tmp_path):
+    """Brax's PPO through the whole chain on Warp (fresh resets, the training physics, the
+    supply limit): two updates, each followed by a CPU validation of the exported policy."""
+    from baselines import ppo_mjx
+    from cpg_suite.harness import runs
+
+    settings = ppo_mjx.PPOMJXSettings(
+        action_space="cpg",
+        impl="warp",
+        num_envs=8,
+        batch_size=4,
+        num_minibatches=2,
+        unroll_length=5,
+        total_steps=80,
+        validation_every=40,
+        validation_seeds=1,
+        trial_steps=10,
+        test_seeds=0,
+        policy_layers=(8,),
+        value_layers=(8,),
+    )
+    run_dir, summary = ppo_mjx.run(settings, runs.RunOptions(output_dir=str(tmp_path)))
+    progress = (tmp_path / "ppo_mjx" / "darwin_walk" / "cpg_seed0" / "progress.csv").read_text()
+    rows = progress.strip().splitlines()[1:]
+    assert len(rows) >= 2 and summary["env_steps"] >= 80
+    assert all(np.isfinite(float(r.split(",")[1])) for r in rows)  # validation distances
+    config = runs.read_json(os.path.join(run_dir, "config.json"))
+    assert config["settings"]["impl"] == "warp" and config["settings"]["benchmark_version"] == 2
