@@ -14,8 +14,8 @@ step). In the same run, the CPU vector env (`cpg_suite.vector.make_vector_env`,
 each and their ratio MJX / CPU. With `--ppo_steps`, Brax's PPO (`baselines.ppo_mjx`'s
 trainer and settings, `--ppo_envs` environments) then trains that many env steps on each
 backend and physics, and its env steps/s while training are printed (Brax's
-`training/sps`: collection and updates, compilation excluded) with the wall time
-including compilation. JAX runs on its default device (CPU here unless a GPU build and
+`training/sps` of the second half of the steps: collection and updates, compilation
+excluded) with the wall time including compilation. JAX runs on its default device (CPU here unless a GPU build and
 device are present; float32 unless `--x64`, which only the JAX reference physics accepts).
 `--iterations` / `--ls_iterations`, `--contacts` and `--timestep` override those parts of
 every physics measured (results/mjx: the solver's iterations are the main cost under
@@ -250,10 +250,12 @@ def ppo_rate(settings: BenchMJXSettings, impl: str, physics: str) -> tuple[float
     """Brax PPO's env steps/s while training on MJX (`baselines.ppo_mjx`'s trainer).
 
     `baselines.ppo_mjx`'s settings with `ppo_envs` environments (minibatches of an eighth),
-    trained `ppo_steps` env steps with no validation; the physics as `WalkEnv` gets it here.
+    trained `ppo_steps` env steps in two of Brax's training epochs with no validation; the
+    physics as `WalkEnv` gets it here. The first epoch compiles; the rate is the second's.
 
     Returns:
-      `(env steps/s, Brax's training/sps; wall time, s, compilation included)`.
+      `(env steps/s, Brax's training/sps of the second epoch; wall time, s, compilation
+      included)`.
     """
     from brax.training.agents.ppo import train as brax_ppo
 
@@ -265,7 +267,7 @@ def ppo_rate(settings: BenchMJXSettings, impl: str, physics: str) -> tuple[float
         action_space="cpg",
         total_steps=settings.ppo_steps,
         num_envs=settings.ppo_envs,
-        validation_every=settings.ppo_steps,
+        validation_every=max(1, settings.ppo_steps // 2),  # two epochs: Brax times each
         batch_size=settings.ppo_envs // 8,
         test_seeds=0,
         impl=impl,
