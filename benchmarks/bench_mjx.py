@@ -15,8 +15,9 @@ each and their ratio MJX / CPU. With `--ppo_steps`, Brax's PPO (`baselines.ppo_m
 trainer and settings, `--ppo_envs` environments) then trains that many env steps on each
 backend and physics, and its env steps/s while training are printed (Brax's
 `training/sps` of the second half of the steps: collection and updates, compilation
-excluded) with the wall time including compilation. JAX runs on its default device (CPU here unless a GPU build and
-device are present; float32 unless `--x64`, which only the JAX reference physics accepts).
+excluded) with the wall time including compilation. JAX runs on its default device (CPU
+here unless a GPU build and device are present; float32 unless `--x64`, which only the
+JAX reference physics accepts).
 `--iterations` / `--ls_iterations`, `--contacts` and `--timestep` override those parts of
 every physics measured (results/mjx: the solver's iterations are the main cost under
 `vmap`, where every robot waits for the slowest).
@@ -108,7 +109,8 @@ class BenchMJXSettings:
             self.contacts in ("", *walk.CONTACTS),
             f"--contacts must be one of {', '.join(walk.CONTACTS)} or empty, got {self.contacts!r}",
         )
-        cli.require(self.timestep >= 0, f"--timestep must be ≥ 0, got {self.timestep}")
+        if self.timestep != 0:  # 0: the physics' own
+            walk.physics_settings("reference", timestep=self.timestep)
         cli.require(self.ppo_steps >= 0, f"--ppo_steps must be ≥ 0, got {self.ppo_steps}")
         cli.require(
             self.ppo_envs >= 8 and self.ppo_envs % 8 == 0,

@@ -118,15 +118,15 @@ class AgreementSettings:
         """The physics step, s, parsed (None: the physics' own).
 
         Raises:
-          ValueError: Unless `timestep` is empty or a positive number.
+          ValueError: Unless `timestep` is empty or a number that divides the control step.
         """
         if not self.timestep:
             return None
         try:
             value = float(self.timestep)
         except ValueError:
-            value = 0.0
-        cli.require(value > 0, f"--timestep must be a positive number of s, got {self.timestep!r}")
+            raise ValueError(f"--timestep must be a number of s, got {self.timestep!r}") from None
+        walk.physics_settings("reference", timestep=value)  # ValueError unless it divides 16 ms
         return value
 
     def env_kwargs(self) -> dict:

@@ -52,6 +52,8 @@ VALID = {
     ("baselines.ppo_mjx", "gae_lambda", "0"): "one-step advantages",
     ("benchmarks.bench_mjx", "iterations", "0"): "documented: with --ls_iterations=0, the model's",
     ("benchmarks.bench_mjx", "ls_iterations", "0"): "documented: with --iterations=0, the model's",
+    ("benchmarks.bench_mjx", "timestep", "0"): "documented: the physics' own step",
+    ("benchmarks.bench_mjx", "ppo_steps", "0"): "documented: no PPO throughput run",
     ("cpg_suite.explore", "strip_start", "0"): "a first snapshot at the start",
     ("cpg_suite.protocol.score", "supply_window", "inf"): "documented: the whole trial",
 }

@@ -213,7 +213,7 @@ class WalkEnv:
             raise ValueError(f"unknown MJX task {task_id!r}; valid: {', '.join(TASKS)}")
         if action_space not in ACTION_SPACES:
             raise ValueError(f"action_space must be one of {ACTION_SPACES}, got {action_space!r}")
-        self.physics = _physics_settings(physics, contacts, solver_iterations, timestep)
+        self.physics = physics_settings(physics, contacts, solver_iterations, timestep)
         if impl not in IMPLS:
             raise ValueError(f"impl must be one of {IMPLS}, got {impl!r}")
         if isinstance(max_robots, bool) or not isinstance(max_robots, int) or max_robots < 1:
@@ -712,8 +712,26 @@ def trial_result(out: dict, start: np.ndarray) -> dict:
     }
 
 
-def _physics_settings(name, contacts, solver_iterations, timestep) -> PhysicsSettings:
-    """`PHYSICS[name]` with the given parts replaced (None keeps its own), or ValueError."""
+def physics_settings(
+    name: str,
+    contacts: str | None = None,
+    solver_iterations: tuple[int, int] | None = None,
+    timestep: float | None = None,
+) -> PhysicsSettings:
+    """`PHYSICS[name]` with the given parts replaced (None keeps its own).
+
+    Args:
+      name: A key of `PHYSICS`.
+      contacts: One of `CONTACTS`, or None.
+      solver_iterations: Two integers ≥ 1, or None.
+      timestep: A physics step that divides the 16 ms control step, s, or None.
+
+    Returns:
+      The settings `WalkEnv` builds with.
+
+    Raises:
+      ValueError: On an unknown name or contacts, bad solver caps or timestep.
+    """
     if name not in PHYSICS:
         raise ValueError(f"physics must be one of {tuple(PHYSICS)}, got {name!r}")
     settings = PHYSICS[name]

@@ -6,10 +6,11 @@
 # The GPU machine's image has JAX 0.11.2 (CUDA 13), Flax, Optax and NumPy but not MuJoCo,
 # MJX, Warp, Brax, dm_control or Gymnasium, and it cannot download them. The wheels for its
 # Python 3.12 come to about 250 MB, warp-lang 1.18.0 alone 149 MB, while one device call
-# carries 64 MiB. So they go into one tar, cut into pieces of 60 MB, `.gpu_wheels/part_*`,
-# each in a folder of its own (`.gpu_wheels/p0`, `p1`, ...; ignored by git). On one warm
-# machine, call k carries folder `pk` alone (ignored paths a call leaves are kept there for
-# the next), and the last call joins and installs them:
+# carries 64 MiB with the working tree, whose tracked files take 34 MB (2026-11-26). So they
+# go into one tar, cut into pieces of 25 MiB, `.gpu_wheels/part_*`, each in a folder of its
+# own (`.gpu_wheels/p00`, `p01`, ...; ignored by git): about ten. On one warm machine, call
+# k carries folder `pk` alone (ignored paths a call leaves are kept there for the next),
+# and the last call joins and installs them:
 #
 #   cat .gpu_wheels/p*/part_* | tar -x -C /tmp && python3 -m pip install -q --no-index \
 #     --no-deps --target /tmp/site /tmp/gpu_wheels/*.whl && export PYTHONPATH=/tmp/site:$PWD
@@ -25,7 +26,7 @@ python3 -m pip download --quiet --no-deps --only-binary=:all: --python-version 3
   mujoco==3.17.0 mujoco-mjx==3.17.0 warp-lang==1.18.0 brax==0.14.2 dm-control==1.0.50 \
   dm-env dm-tree labmaze glfw pyopengl websockets trimesh jaxopt ml-collections tensorboardx \
   flask flask-cors itsdangerous blinker gymnasium farama-notifications "shimmy[dm-control]"
-tar -C /tmp -cf - gpu_wheels | split -b 60M -d - .gpu_wheels/part_
+tar -C /tmp -cf - gpu_wheels | split -b 25M -d - .gpu_wheels/part_
 for part in .gpu_wheels/part_*; do
   dir=".gpu_wheels/p${part##*_}"
   mkdir -p "$dir" && mv "$part" "$dir/"
