@@ -157,11 +157,7 @@ class PPOSettings:
             f"--net_arch must be positive layer sizes, got {self.net_arch!r}",
         )
         object.__setattr__(self, "net_arch", arch)
-        require(
-            self.benchmark_version in protocol.VERSIONS,
-            f"--benchmark_version must be one of {sorted(protocol.VERSIONS)}, "
-            f"got {self.benchmark_version!r}",
-        )
+        protocol.require_version(self.benchmark_version)
 
     @property
     def rollout_steps(self) -> int:

@@ -222,11 +222,7 @@ class PPOMJXSettings:
             self.impl in mjx_walk.IMPLS,
             f"--impl must be one of {', '.join(mjx_walk.IMPLS)}, got {self.impl!r}",
         )
-        require(
-            self.benchmark_version in protocol.VERSIONS,
-            f"--benchmark_version must be one of {sorted(protocol.VERSIONS)}, "
-            f"got {self.benchmark_version!r}",
-        )
+        protocol.require_version(self.benchmark_version)
 
     def supply(self):
         """The supply limit trained under (`protocol.supply_limit`; None: unlimited)."""

@@ -66,11 +66,7 @@ class OptimizerSettings:
 
     def __post_init__(self):
         require = cli.require
-        require(
-            self.benchmark_version in protocol.VERSIONS,
-            f"--benchmark_version must be one of {sorted(protocol.VERSIONS)}, "
-            f"got {self.benchmark_version!r}",
-        )
+        protocol.require_version(self.benchmark_version)
         cli.require_controller(self.controller)
         require(self.task in TASKS, f"unknown --task {self.task!r}; valid: {', '.join(TASKS)}")
         for name, low in (("population", 2), ("rounds", 1), ("seed", 0), ("trial_steps", 1)):

@@ -29,6 +29,19 @@ VERSIONS = {
 BENCHMARK_VERSION = 2  # the version new cards are scored under
 
 
+def require_version(version: int) -> None:
+    """Raises ValueError naming the flag unless `version` is a key of `VERSIONS`.
+
+    Args:
+      version: A `--benchmark_version` setting.
+
+    Raises:
+      ValueError: On an unknown version.
+    """
+    if version not in VERSIONS:
+        raise ValueError(f"--benchmark_version must be one of {sorted(VERSIONS)}, got {version!r}")
+
+
 def supply_limit(version: int, window: float = electrical.SUPPLY_WINDOW):
     """The supply's limit of a benchmark version (None: version 1, no limit).
 

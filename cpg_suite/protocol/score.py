@@ -88,11 +88,7 @@ class ScoreSettings:
         cli.require_integer("threads", self.threads, 1)
         cli.require_backend(self.backend, self.ray_address)
         cli.require_controller(self.controller)
-        cli.require(
-            self.benchmark_version in protocol.VERSIONS,
-            f"--benchmark_version must be one of {sorted(protocol.VERSIONS)}, "
-            f"got {self.benchmark_version!r}",
-        )
+        protocol.require_version(self.benchmark_version)
         cli.require(
             isinstance(self.supply_window, (int, float))
             and (0 < self.supply_window <= MAX_SUPPLY_WINDOW or self.supply_window == math.inf),
