@@ -31,6 +31,7 @@ import os
 import re
 import sys
 from collections import defaultdict
+from collections.abc import Iterator
 
 import numpy as np
 from absl import flags
@@ -103,10 +104,20 @@ def _add_score_card(dirpath: str, found: list[dict], skipped: list[str]) -> None
     )
 
 
+def walk_sorted(root: str) -> Iterator[tuple[str, list[str]]]:
+    """`os.walk` in name order: the board's sums and bootstrap draws take the runs in an
+    order that does not depend on the file system's listing order (yields `dirpath` and
+    its sorted file names)."""
+    for dirpath, dirnames, filenames in os.walk(root):
+        dirnames.sort()
+        yield dirpath, sorted(filenames)
+
+
 def find_runs(root: str) -> tuple[list[dict], list[str]]:
-    """Every readable run: method, task, config, seed, summary; and the skipped paths."""
+    """Every readable run, in path order: method, task, config, seed, summary; and the
+    skipped paths."""
     found, skipped = [], []
-    for dirpath, _, filenames in os.walk(root):
+    for dirpath, filenames in walk_sorted(root):
         if "summary.json" not in filenames:
             if "score.json" in filenames:
                 _add_score_card(dirpath, found, skipped)
@@ -468,7 +479,7 @@ def _compare(upper: dict, lower: dict) -> None:
 
 def _carried_claims(root: str) -> list[dict]:
     claims = []
-    for dirpath, _, filenames in os.walk(root):
+    for dirpath, filenames in walk_sorted(root):
         if "pole_claims.csv" in filenames:
             with open(os.path.join(dirpath, "pole_claims.csv"), encoding="utf-8") as f:
                 for row in csv.DictReader(f):

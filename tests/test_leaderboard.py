@@ -62,6 +62,19 @@ def test_leaderboard_and_claims(tmp_path, capsys):
     assert "broken_seed0" in err
 
 
+def test_runs_are_read_in_path_order_whatever_the_file_system_lists(tmp_path):
+    """The board sums and resamples a configuration's runs in a fixed order: names sorted,
+    not the directory listing's (hash) order, which differs between file systems."""
+    names = [f"cpg_seed{s}" for s in (7, 3, 11, 0, 5, 1, 9, 2, 6, 4, 10, 8)]
+    for i, name in enumerate(names):
+        _run(tmp_path, "ppo", "darwin_walk", name, {"best_distance_m": float(i)})
+    _run(tmp_path, "cem", "darwin_walk", "K50_seed0", {"best_distance_m": 0.0})
+    found, skipped = leaderboard.find_runs(str(tmp_path))
+    assert not skipped
+    assert [r["dir"] for r in found] == sorted(r["dir"] for r in found)
+    assert [(r["method"], r["seed"]) for r in found][:2] == [("cem", 0), ("ppo", 0)]
+
+
 def test_missing_runs_directory(tmp_path):
     with pytest.raises(ValueError, match="not a directory"):
         leaderboard.write_tables(str(tmp_path / "nope"), str(tmp_path / "leaderboard.csv"))

@@ -169,7 +169,7 @@ for head in ("normal", "tanh_normal"):
 from cpg_suite.protocol import verify
 from cpg_suite.harness import sb3
 with sb3.single_threaded():
-    for name in ("joints_seed0", "cpg_seed0"):
+    for name in ("joints_v1_seed0", "cpg_v1_seed0"):
         policy = verify.shipped_policy(os.path.join(sys.argv[2], name))
         flat = rng.standard_normal((64, policy.model.observation_space.shape[0]))
         out[f"torch_{name}"] = digest([sb3.predict(policy.model, policy.normalizer, flat[i:i + 1])

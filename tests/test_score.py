@@ -143,7 +143,7 @@ def test_cli_bad_input(args, words):
     assert len(lines) == 1 and lines[0].startswith("error: ") and words in lines[0]
 
 
-@pytest.mark.parametrize("run", ["ppo/darwin_walk/cpg_seed0", "ppo/darwin_walk/joints_seed0"])
+@pytest.mark.parametrize("run", ["ppo/darwin_walk/cpg_v1_seed0", "ppo/darwin_walk/joints_v1_seed0"])
 def test_a_shipped_sb3_policy_scored_in_batches_gets_the_card_of_trial_by_trial(run):
     """SB3 policies step their trials together too: the network row by row, the CPG rows
     and the physics of all trials at once (two threads); the same trials and card."""

@@ -1,7 +1,7 @@
 r"""Which leg joints of a gait or a PPO policy turn faster than the MX-28's no-load speed,
 when in the step, and what drives them (`cpg_suite.protocol.overspeed`).
 
-  python -m baselines.experiments.overspeed --ppo_run=runs/ppo/darwin_walk/joints_seed0
+  python -m baselines.experiments.overspeed --ppo_run=runs/ppo/darwin_walk/joints_v1_seed0
   python -m baselines.experiments.overspeed --params=hand_tuned --out=overspeed.json
 
 Runs `--seeds` held-out test seeds of `--tier` step by step, as the score card does, and

@@ -30,7 +30,7 @@ HEADER = (
 
 
 def _method(row: dict) -> str:
-    config = row["config"]
+    config = row["config"].removesuffix("_v1")  # runs trained under version 1 were renamed
     name = METHODS.get(row["method"], row["method"])
     if row["method"] in ("ppo", "ppo_mjx"):
         name += f" `{config}`"
