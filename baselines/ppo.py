@@ -81,6 +81,9 @@ class PPOSettings:
       net_arch: Hidden layers of the policy and of the value network (separate).
       benchmark_version: The benchmark version trained under: its supply limit holds in
         the training and validation envs (a brown-out ends the episode like a fall).
+      supply_cost: κ, metres of training reward per coulomb the robot draws above its
+        idle current (`sb3.FlatVecEnv`; 0: the task's reward). Validation and test scores
+        are the task's.
     """
 
     task: str = "darwin_walk"
@@ -108,6 +111,7 @@ class PPOSettings:
     log_std_init: float = -1.0
     net_arch: tuple[int, ...] = (256, 256)
     benchmark_version: int = protocol.BENCHMARK_VERSION
+    supply_cost: float = 0.0
 
     def __post_init__(self):
         require = cli.require
@@ -148,6 +152,7 @@ class PPOSettings:
         number("vf_coef", self.vf_coef, 0, 1e3, low_open=True)  # upper end: a choice
         number("max_grad_norm", self.max_grad_norm, 0, 1e6, low_open=True)  # a choice
         number("log_std_init", self.log_std_init, -20, 5)  # a choice: σ from 2e-9 to 148
+        number("supply_cost", self.supply_cost, 0, 1e3)  # upper end: a choice
         try:
             arch = tuple(int(v) for v in self.net_arch)
         except (TypeError, ValueError):
@@ -166,8 +171,10 @@ class PPOSettings:
 
 
 def default_run_name(settings: PPOSettings) -> str:
-    """`<action_space>_seed<seed>`."""
-    return f"{settings.action_space}_seed{settings.seed}"
+    """`<action_space>_seed<seed>`, or `<action_space>_c<supply_cost>_seed<seed>` when the
+    reward is shaped by the supply."""
+    cost = f"_c{settings.supply_cost:g}" if settings.supply_cost else ""
+    return f"{settings.action_space}{cost}_seed{settings.seed}"
 
 
 # The algorithm.
@@ -276,6 +283,11 @@ def define_flags() -> None:
     flags.DEFINE_integer("seed", d.seed, "Seed of the network, sampling and training seeds.")
     flags.DEFINE_integer(
         "benchmark_version", d.benchmark_version, "Benchmark version (supply limit) trained under."
+    )
+    flags.DEFINE_float(
+        "supply_cost",
+        d.supply_cost,
+        "Training reward shaping: metres per coulomb drawn above the idle current (0: none).",
     )
     flags.DEFINE_integer("trial_steps", d.trial_steps, "Control steps per episode (1000 = 16 s).")
     flags.DEFINE_integer(

@@ -125,6 +125,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self._servo_dofs = first.physics.servo_dofs()
         self._damping = np.zeros((self.num_envs, 1, len(self._servo_dofs)))  # at each reset
         self._meter = electrical.SupplyMeter((self.num_envs, self.n_sub), len(self._servo_dofs))
+        self._currents: np.ndarray | None = None  # the last control step's (the meter's buffer)
         self.step_limit = int(round(first._step_limit)) if np.isfinite(first._step_limit) else None
         self.physics_steps = 0  # physics steps simulated so far, all sub-environments
         self._steps = np.zeros(self.num_envs, dtype=np.int64)  # control steps this episode
@@ -293,6 +294,18 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         currents = self._meter(self._step_force, velocity, self._damping)
         for i in stepped:
             self.envs[i].task.supply.update(currents[i])
+        self._currents = currents
+
+    def supply_currents(self) -> np.ndarray:
+        """Each robot's supply current after each physics step of the last control step, A:
+        the values its task's supply monitor was given (a copy).
+
+        Returns:
+          (num_envs, physics steps per control step) float64; zeros before the first step.
+        """
+        if self._currents is None:
+            return np.zeros((self.num_envs, self.n_sub))
+        return self._currents.copy()
 
     def _step_block(self, work: list) -> list[bool]:
         """`control.Environment.step` for some sub-environments, in one thread: the servo

@@ -48,6 +48,7 @@ VALID = {
     ("baselines.ppo", "gae_lambda", "0"): "one-step advantages",
     ("baselines.ppo", "log_std_init", "0"): "an initial σ of 1",
     ("baselines.ppo", "log_std_init", "-1"): "the default: an initial σ of e⁻¹",
+    ("baselines.ppo", "supply_cost", "0"): "the default: the task's reward, unshaped",
     ("baselines.ppo_mjx", "entropy_cost", "0"): "the default: no entropy bonus",
     ("baselines.ppo_mjx", "gae_lambda", "0"): "one-step advantages",
     ("benchmarks.bench_mjx", "iterations", "0"): "documented: with --ls_iterations=0, the model's",

@@ -116,6 +116,49 @@ def test_cpg_wrapper_with_zero_actions_walks_the_hand_tuned_gait():
 
 
 # The SB3 adapter.
+def test_supply_cost_takes_the_charge_above_idle_from_the_reward_and_keeps_task_returns():
+    """κ > 0: each step's reward loses κ·Σ_k (i_k − idle)·h, with the currents the tasks'
+    supply monitors were given (their running totals); the episodes' returns stay the
+    task's, and the episodes the same."""
+    kappa = 0.5
+    settings = _settings(trial_steps=20, supply_cost=kappa)
+    shaped = sb3.FlatVecEnv(sb3.make_vector_env(settings, 2, threads=1), kappa)
+    plain = sb3.FlatVecEnv(sb3.make_vector_env(settings, 2, threads=1))
+    n_sub, h = shaped.env.unwrapped.n_sub, darwin.CONTROL_TIMESTEP / shaped.env.unwrapped.n_sub
+    rng = np.random.default_rng(0)
+    for env in (shaped, plain):
+        env.seed(5)
+        env.reset()
+    monitors = [env.task.supply for env in shaped.env.unwrapped.envs]
+    for _ in range(50):
+        before = np.array([m.total for m in monitors])
+        actions = np.clip(0.6 * rng.standard_normal((2, 12)), -1, 1)
+        for env in (shaped, plain):
+            env.step_async(actions)
+        _, rewards, dones, _ = shaped.step_wait()
+        _, task_rewards, plain_dones, _ = plain.step_wait()
+        assert np.array_equal(dones, plain_dones)
+        drawn = np.array([m.total for m in monitors]) - before  # A·physics steps
+        charge = (drawn - n_sub * electrical.IDLE_CURRENT) * h
+        for i in np.flatnonzero(~dones):  # a finished robot's monitor was reset
+            assert charge[i] > 0
+            assert rewards[i] == pytest.approx(task_rewards[i] - kappa * charge[i], abs=1e-12)
+    assert shaped.drain_episodes() == plain.drain_episodes() != []
+    with pytest.raises(ValueError, match="supply_cost"):
+        sb3.FlatVecEnv(sb3.make_vector_env(settings, 2, threads=1), -0.1)
+
+
+@pytest.mark.parametrize("value", [-0.01, float("nan"), float("inf")])
+def test_supply_cost_must_be_a_finite_number_at_least_zero(value):
+    with pytest.raises(ValueError, match="--supply_cost"):
+        _settings(supply_cost=value)
+
+
+def test_a_supply_shaped_run_is_named_by_its_cost():
+    assert ppo.default_run_name(_settings(seed=2)) == "joints_seed2"
+    assert ppo.default_run_name(_settings(seed=2, supply_cost=0.03)) == "joints_c0.03_seed2"
+
+
 @pytest.mark.parametrize("action_space, size", [("joints", 40), ("cpg", 42)])
 def test_flat_vec_env_terminal_observation_and_truncation(action_space, size):
     settings = _settings(action_space=action_space, trial_steps=5)

@@ -86,6 +86,9 @@ class LearnerSettings(sb3.EnvSettings, Protocol):
     @property
     def gamma(self) -> float: ...  # the discount (VecNormalize's reward scale)
 
+    @property
+    def supply_cost(self) -> float: ...  # κ, m/C: the reward's supply shaping (0: none)
+
 
 @dataclasses.dataclass(frozen=True)
 class Learner:
@@ -310,7 +313,9 @@ def _train_and_score(
 ) -> dict:
     """Trains to `total_steps`, writes the policies and returns the summary."""
     sb3.import_torch()
-    train_env = sb3.FlatVecEnv(sb3.make_vector_env(settings, settings.num_envs, options.threads))
+    train_env = sb3.FlatVecEnv(
+        sb3.make_vector_env(settings, settings.num_envs, options.threads), settings.supply_cost
+    )
     threads = min(options.threads, settings.validation_seeds)
     validation_env = sb3.make_vector_env(settings, settings.validation_seeds, threads)
     try:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import importlib
 import io
+import math
 import os
 import pickle
 import sys
@@ -40,7 +41,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 import cpg_suite
-from cpg_suite import darwin, protocol, residual, vector
+from cpg_suite import darwin, electrical, protocol, residual, vector
 
 # The SB3 algorithm of each policy learner's method name (its run directories' second level).
 ALGORITHMS = {"ppo": "PPO"}
@@ -129,21 +130,31 @@ class FlatVecEnv(VecEnv):
     `dones = terminated | truncated` and, for each finished sub-environment,
     `infos[i]["terminal_observation"]` (its last observation, flattened),
     `infos[i]["TimeLimit.truncated"]` (truncated and not terminated, so SB3 bootstraps
-    it), `infos[i]["fell"]` and `infos[i]["episode"]` (raw return `r`, length `l`, as
-    SB3's `Monitor` gives). `seed(s)` makes the next `reset` seed sub-environment i with
+    it), `infos[i]["fell"]` and `infos[i]["episode"]` (the task's return `r`, length `l`,
+    as SB3's `Monitor` gives). `seed(s)` makes the next `reset` seed sub-environment i with
     s + i. Finished episodes are collected for `drain_episodes`.
+
+    With a `supply_cost` κ > 0 the learner's reward is shaped by the supply: each control
+    step's reward loses κ times the charge the robot drew above its idle current in that
+    step, r − κ·Σ_k (i_k − `electrical.IDLE_CURRENT`)·h over its physics steps k of h
+    seconds (κ in metres per coulomb). The episodes' returns stay the task's.
     """
 
-    def __init__(self, env: gymnasium.vector.VectorEnv):
+    def __init__(self, env: gymnasium.vector.VectorEnv, supply_cost: float = 0.0):
         """Args:
           env: The vector env (`make_vector_env`).
+          supply_cost: κ, metres of reward per coulomb above the idle robot's draw (0: the
+            task's reward).
 
         Raises:
-          ValueError: If its autoreset mode is not same-step.
+          ValueError: If its autoreset mode is not same-step, or κ is negative or not finite.
         """
         if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
             raise ValueError("FlatVecEnv needs a vector env with AutoresetMode.SAME_STEP")
+        if not (math.isfinite(supply_cost) and supply_cost >= 0):
+            raise ValueError(f"supply_cost must be a finite number ≥ 0, got {supply_cost!r}")
         self.env = env
+        self.supply_cost = float(supply_cost)
         self.keys = observation_keys(env.single_observation_space)
         size = sum(int(np.prod(env.single_observation_space[k].shape)) for k in self.keys)
         space = gymnasium.spaces.Box(-np.inf, np.inf, (size,), np.float64)
@@ -185,6 +196,8 @@ class FlatVecEnv(VecEnv):
         terminated, truncated = np.asarray(terminated), np.asarray(truncated)
         dones = terminated | truncated
         self._returns += rewards
+        if self.supply_cost:
+            rewards = rewards - self.supply_cost * self.charge_above_idle()
         self._lengths += 1
         infos: list[dict] = [{} for _ in range(self.num_envs)]
         for i in np.flatnonzero(dones):
@@ -198,6 +211,14 @@ class FlatVecEnv(VecEnv):
             self._episodes.append((float(self._returns[i]), int(self._lengths[i]), fell))
             self._returns[i], self._lengths[i] = 0.0, 0
         return flatten(observations, self.keys), rewards, dones, infos
+
+    def charge_above_idle(self) -> np.ndarray:
+        """(N,) the charge each robot drew above its idle current in the last control step,
+        C: Σ_k (i_k − `electrical.IDLE_CURRENT`)·h over its physics steps."""
+        vector_env = self.env.unwrapped
+        currents = vector_env.supply_currents()
+        timestep = vector_env.envs[0].physics.timestep()
+        return (currents - electrical.IDLE_CURRENT).sum(axis=1) * timestep
 
     def close(self) -> None:
         self.env.close()
