@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import types
 
 import numpy as np
 from gymnasium.vector import AutoresetMode
@@ -40,7 +41,7 @@ def probe(run_dir: str, deterministic: bool) -> list[tuple]:
     for each robot."""
     with open(_config_path(run_dir), encoding="utf-8") as f:
         settings = json.load(f)["settings"]
-    policy = sb3.TrainedPolicy.load(run_dir, PPO, _Settings(settings), which="final")
+    policy = sb3.TrainedPolicy.load(run_dir, PPO, types.SimpleNamespace(**settings), which="final")
     env = vector.DarwinVectorEnv(
         "darwin_walk",
         len(SEEDS),
@@ -86,13 +87,6 @@ def steady_speed(discounted_return: float, gamma: float) -> float:
     """The speed, m/s, of a gait walking the whole trial whose return at `gamma` is this."""
     per_metre_per_s = darwin.CONTROL_TIMESTEP * (1 - gamma**STEPS) / (1 - gamma)
     return discounted_return / per_metre_per_s
-
-
-class _Settings:
-    """The settings the policy's action space reads, from config.json."""
-
-    def __init__(self, settings: dict):
-        self.__dict__.update(settings)
 
 
 def main(run_dirs: list[str]) -> None:
