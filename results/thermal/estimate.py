@@ -1,0 +1,162 @@
+"""The servos' temperatures under the shipped gaits and policies (`cpg_suite.thermal`).
+
+Each shipped run's selected gait or policy walks the nominal tier's first test seeds again,
+as the scorer steps it under the run's card's benchmark version; every physics step's 20
+servo forces and joint velocities give each servo's copper loss (`electrical.copper_loss`),
+and the two-node model (`thermal.temperatures`) each winding's and housing's temperature
+from 25 °C, for both neighbour motors (`thermal.MOTORS`). Per trial it writes the hottest
+servo, its mean copper loss, the highest winding and housing temperatures within the trial,
+and, had the gait gone on at each servo's mean loss, the minutes until the first winding
+and the first housing reach the MX-28's 80 °C limit (within two hours) and the hottest
+winding's final temperature. The feedback-CPG runs are left out: their controller reads
+the sensors inside the evaluator (`evaluation.closed_loop`), not through a policy.
+
+    python results/thermal/estimate.py                   # every run, 5 nominal seeds each
+    python results/thermal/estimate.py --seeds=2 --runs=ppo/darwin_walk
+    python results/thermal/estimate.py --summary          # the table of the kept trials.csv
+
+Writes `trials.csv` (a row per trial and motor) beside this file, or under --out.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import sys
+
+import numpy as np
+import pandas as pd
+from absl import app, flags
+
+from cpg_suite import electrical, protocol, thermal
+from cpg_suite.protocol import score, verify
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+EXTRAPOLATION = 2 * 3600  # s: how long the gait is taken to go on
+FIELDS = (
+    "run", "seed", "distance_m", "failed", "motor", "hottest_servo", "mean_loss_w",
+    "winding_peak_c", "housing_peak_c", "minutes_to_limit_winding", "minutes_to_limit_housing",
+)  # fmt: skip
+
+
+def _policy(run_dir: str):
+    """The run's policy as the scorer steps it (an open-loop gait as `OpenLoopPolicy`)."""
+    policy = verify.shipped_policy(run_dir)
+    if policy is not None:
+        return policy
+    config = protocol_settings(run_dir)
+    return score.OpenLoopPolicy(verify._params(run_dir, config.controller), config.steps)
+
+
+def protocol_settings(run_dir: str) -> score.ScoreSettings:
+    """The settings the run's card was scored with."""
+    config = verify.runs.read_json(os.path.join(run_dir, "config.json"))
+    return verify._settings(config, card=verify.stored_card(run_dir))
+
+
+def _record(physics) -> tuple:
+    return np.array(physics.servo_forces()), np.array(physics.servo_velocities())
+
+
+def trial_losses(policy, settings: score.ScoreSettings, seed: int) -> tuple:
+    """One nominal-tier trial: `(distance, failed, (steps, 20) copper loss, timestep, the
+    servos' names)`."""
+    env, observation, n_sub = score.start_trial(
+        policy, protocol.TIERS[0], seed, settings.task_kwargs()
+    )
+    physics = env.physics
+    start = physics.torso_position()
+    last, ended, records = score.step_policy(
+        policy, env.task, physics, observation, settings.steps, n_sub, _record
+    )
+    force, velocity = (np.array(c) for c in zip(*records))
+    loss = electrical.copper_loss(force, velocity, physics.servo_damping())
+    distance = float((start if last is None else last)[0] - start[0])
+    names = [physics.model.id2name(i, "actuator") for i in range(physics.model.nu)]
+    return distance, bool(ended[0]), loss, float(physics.model.opt.timestep), names
+
+
+def _minutes_to_limit(temperature: np.ndarray) -> float:
+    """Minutes (1 s steps) until any servo reaches the limit; inf if none within two hours."""
+    hot = np.flatnonzero(np.any(temperature >= thermal.SHUTDOWN_TEMPERATURE, axis=1))
+    return (hot[0] + 1) / 60.0 if hot.size else float("inf")
+
+
+def trial_rows(run: str, seed: int, distance, failed, loss, timestep, names) -> list:
+    """The trial's rows, one per motor (`FIELDS`)."""
+    mean = loss.mean(axis=0)
+    hottest = int(np.argmax(mean))
+    rows = []
+    for name, motor in thermal.MOTORS.items():
+        winding, housing = thermal.temperatures(loss, timestep, motor)
+        on_w, on_h = thermal.temperatures(np.tile(mean, (EXTRAPOLATION, 1)), 1.0, motor)
+        rows.append([
+            run, seed, f"{distance:.4f}", int(failed), name, names[hottest], f"{mean[hottest]:.4f}",
+            f"{winding.max():.2f}", f"{housing.max():.2f}", f"{_minutes_to_limit(on_w):.2f}",
+            f"{_minutes_to_limit(on_h):.2f}",
+        ])  # fmt: skip
+    return rows
+
+
+def summary(path: str) -> str:
+    """A markdown table per configuration and motor: walked trials (not failed) of all, the
+    hottest servos, their mean loss (median), the trials whose winding reached 80 °C within
+    the trial, and the median minutes to the limit of the walked trials, had they gone on."""
+    trials = pd.read_csv(path)
+    trials["configuration"] = trials["run"].str.replace(r"seed\d+$", "", regex=True)
+    lines = [
+        "| configuration | motor | walked | hottest servos | loss, W | winding ≥ 80 °C in "
+        "the trial | minutes to 80 °C: winding, housing |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for (name, motor), group in trials.groupby(["configuration", "motor"], sort=False):
+        walked = group[group["failed"] == 0]
+        servos = ", ".join(group["hottest_servo"].value_counts().index[:2])
+        hot = int((group["winding_peak_c"] >= thermal.SHUTDOWN_TEMPERATURE).sum())
+        minutes = (
+            f"{walked['minutes_to_limit_winding'].median():.1f}, "
+            f"{walked['minutes_to_limit_housing'].median():.1f}"
+            if len(walked)
+            else "—"
+        )
+        lines.append(
+            f"| {name.rstrip('_/')} | {motor} | {len(walked)} of {len(group)} | {servos} | "
+            f"{group['mean_loss_w'].median():.2f} | {hot} | {minutes} |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv) -> None:
+    del argv
+    values = flags.FLAGS
+    path = os.path.join(values.out, "trials.csv")
+    if values.summary:
+        print(summary(path))
+        return
+    root = os.path.join(verify.ARTIFACTS, values.runs) if values.runs else verify.ARTIFACTS
+    chosen = [r for r in verify.shipped_runs(root) if protocol_settings(r).controller != "feedback"]
+    if not chosen:
+        print(f"no shipped gait or policy runs under {root}", file=sys.stderr)
+        raise SystemExit(2)
+    os.makedirs(values.out, exist_ok=True)
+    with open(path + ".tmp", "w", newline="") as f:
+        out = csv.writer(f)
+        out.writerow(FIELDS)
+        for run_dir in chosen:
+            run = os.path.relpath(run_dir, verify.ARTIFACTS)
+            settings, policy = protocol_settings(run_dir), _policy(run_dir)
+            with verify._policy_threads(run_dir):
+                for seed in protocol.TEST[: values.seeds]:
+                    out.writerows(trial_rows(run, seed, *trial_losses(policy, settings, seed)))
+            f.flush()
+            print(run, flush=True)
+    os.replace(path + ".tmp", path)
+    print(summary(path))
+
+
+if __name__ == "__main__":
+    flags.DEFINE_integer("seeds", 5, "Nominal-tier test seeds per run.", lower_bound=1)
+    flags.DEFINE_string("runs", "", "A subfolder of the shipped runs (default: all).")
+    flags.DEFINE_string("out", HERE, "Folder of trials.csv.")
+    flags.DEFINE_bool("summary", False, "Only print the table of the folder's trials.csv.")
+    app.run(main)
