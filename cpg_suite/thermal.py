@@ -9,13 +9,17 @@ the resistance each node loses heat through), the temperatures above the ambient
     C_h · dΔT_h/dt = (ΔT_w − ΔT_h) / R_wh − ΔT_h / R_ha
 
 and the copper's resistance, so the loss at a given current, grows with the winding's
-temperature: P = P₂₅ · (1 + α_Cu · (T_w − 25 °C)). `temperatures` steps this exactly for
-a loss held over each physics step (the matrix exponential of the linear part).
+temperature: P = P₂₅ · (1 + α_Cu · (T_w − 25 °C)). The current is the one the servo's
+torque sets (`electrical.motor_current`), as while it walks; a servo held at its voltage
+limit (stalled, or saturated) would instead draw less current as it warms, which this
+does not model. `temperatures` steps the equations exactly for a loss held over each
+physics step (the matrix exponential of the linear part).
 
 **Sources (docs/darwin_op_model.md#heat).** No source found gives the thermal constants of
 the MX-28's own motor (ROBOTIS: a coreless maxon; a secondary source: maxon RE-max 17,
 214897). The two motor families either side of it give them (`RE_MAX_21`, `RE_MAX_13`):
-which one, and the copper's coefficient, are choices; results/thermal shows both.
+which one is a choice, and so is the copper's coefficient; results/thermal shows both
+motors, and the minutes to the limit without the coefficient too.
 
 Nothing here is part of the task: the episode's end does not depend on it
 (docs/decisions.md#heat says why).
@@ -116,8 +120,8 @@ def temperatures(
         raise ValueError(f"loss must be (steps, servos), got shape {loss.shape}")
     if not timestep > 0:
         raise ValueError(f"timestep must be > 0 s, got {timestep!r}")
-    if np.any(loss < 0):
-        raise ValueError("a copper loss is negative")
+    if not np.all(loss >= 0):  # NaN fails too
+        raise ValueError("a copper loss is negative or not a number")
     rates = motor.rates()
     phi = scipy.linalg.expm(rates * timestep)
     gamma = np.linalg.solve(rates, phi - np.eye(2)) @ np.array([1.0 / motor.capacities[0], 0.0])
@@ -130,11 +134,19 @@ def temperatures(
     return AMBIENT + out[:, 0], AMBIENT + out[:, 1]
 
 
-def steady_rise(loss: float, motor: MotorThermal, coefficient: float = COPPER_COEFFICIENT):
-    """The winding's final rise above the ambient, K, under a constant loss at 25 °C.
+def steady_rise(loss: float, motor: MotorThermal, coefficient: float = COPPER_COEFFICIENT) -> float:
+    """The winding's final rise above the ambient under a constant loss.
 
-    ΔT = P₂₅(1 + αΔT)(R_wh + R_ha), so ΔT = P₂₅·R / (1 − α·P₂₅·R); inf where the loss
-    runs away (α·P₂₅·R ≥ 1: the copper heats faster than it sheds heat).
+    ΔT = P₂₅(1 + αΔT)(R_wh + R_ha), so ΔT = P₂₅·R / (1 − α·P₂₅·R).
+
+    Args:
+      loss: The copper loss at 25 °C, P₂₅, W.
+      motor: The motor's thermal data.
+      coefficient: Copper's temperature coefficient α, 1/K.
+
+    Returns:
+      The rise, K; inf where the loss runs away (α·P₂₅·R ≥ 1: the copper's loss grows
+      faster with its temperature than the motor sheds heat).
     """
     resistance = motor.r_winding_housing + motor.r_housing_ambient
     gain = coefficient * loss * resistance

@@ -155,7 +155,7 @@ def test_a_shipped_sb3_policy_scored_in_batches_gets_the_card_of_trial_by_trial(
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     run_dir = os.path.join(root, verify.ARTIFACTS, run)
     settings = score.ScoreSettings(tiers=("darwin_walk_push",), seeds=3, steps=60)
-    with verify._policy_threads(run_dir):
+    with verify.policy_threads(run_dir):
         policy = verify.shipped_policy(run_dir)
         batched = score.score_policy_trials(policy, settings)
         one_by_one = score.score_policy_trials(_OneByOne(policy), settings)

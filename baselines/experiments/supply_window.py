@@ -82,16 +82,16 @@ def configuration(run_dir: str, artifacts: str) -> str:
 def score_run(run_dir: str, window: float, settings: WindowSettings) -> dict:
     """One run's success-weighted distance and failures under one window."""
     config = runs.read_json(os.path.join(run_dir, "config.json"))
-    base = verify._settings(config, settings.seeds, threads=2)
+    base = verify.card_settings(config, settings.seeds, threads=2)
     scoring = dataclasses.replace(
         base, tiers=settings.tiers, benchmark_version=2, supply_window=window, seeds=settings.seeds
     )
     policy = verify.shipped_policy(run_dir)
     if policy is None:
-        params = verify._params(run_dir, scoring.controller)
+        params = verify.gait_params(run_dir, scoring.controller)
         card, _ = score.score_gait_trials(params, scoring)
     else:
-        with verify._policy_threads(run_dir):
+        with verify.policy_threads(run_dir):
             card, _ = score.score_policy_trials(policy, scoring)
     row = card["all"]
     return {

@@ -80,11 +80,21 @@ def shipped_runs(root: str) -> list[str]:
     return sorted(found)
 
 
-def _settings(
+def card_settings(
     config: dict, seeds: int | None = None, threads: int = 2, card: dict | None = None
 ) -> score.ScoreSettings:
-    """The score settings a run's card was made with (from its config.json, and the
-    benchmark version and supply window its card records: a card without is version 1)."""
+    """The score settings a run's card was made with.
+
+    Args:
+      config: The run's config.json.
+      seeds: Test seeds per tier (None: the run's own).
+      threads: Evaluator threads (the results do not depend on it).
+      card: The run's stored card, whose benchmark version and supply window it takes (None
+        or a card without them: version 1).
+
+    Returns:
+      The settings `score.score_gait_trials` and `score.score_policy_trials` take.
+    """
     s = config["settings"]
     card = card or {}
     return score.ScoreSettings(
@@ -106,7 +116,9 @@ def stored_card(run_dir: str) -> dict | None:
     return runs.read_json(path).get("test") if os.path.exists(path) else None
 
 
-def _params(run_dir: str, controller: str) -> np.ndarray:
+def gait_params(run_dir: str, controller: str) -> np.ndarray:
+    """A gait run's selected parameters (`selected_params.json`): the CPG's amplitudes, or
+    the feedback CPG's amplitudes and gains (`controller` "feedback")."""
     path = os.path.join(run_dir, "selected_params.json")
     if controller == "feedback":
         return feedback.load_params(path)
@@ -126,11 +138,11 @@ def rescore(run_dir: str, seeds: int | None = None, threads: int = 2) -> tuple[d
       OSError, KeyError, ValueError: On a run without a readable config or gait.
     """
     config = runs.read_json(os.path.join(run_dir, "config.json"))
-    settings = _settings(config, seeds, threads, stored_card(run_dir))
+    settings = card_settings(config, seeds, threads, stored_card(run_dir))
     policy = shipped_policy(run_dir)
     if policy is None:
-        return score.score_gait_trials(_params(run_dir, settings.controller), settings)
-    with _policy_threads(run_dir):
+        return score.score_gait_trials(gait_params(run_dir, settings.controller), settings)
+    with policy_threads(run_dir):
         return score.score_policy_trials(policy, settings)
 
 
@@ -158,8 +170,9 @@ def shipped_policy(run_dir: str) -> Callable[[dict], np.ndarray] | None:
     return sb3.load_shipped_policy(run_dir, method, config["settings"])
 
 
-def _policy_threads(run_dir: str):
-    """Single-threaded torch for an SB3 policy (its results then do not depend on threads)."""
+def policy_threads(run_dir: str) -> contextlib.AbstractContextManager:
+    """Single-threaded torch while a run's Stable-Baselines3 policy acts (its results then do
+    not depend on threads); nothing for other runs."""
     if os.path.exists(os.path.join(run_dir, _POLICY)):
         from cpg_suite.harness import sb3
 
@@ -386,12 +399,14 @@ def upgrade_run(run_dir: str, version: int = protocol.BENCHMARK_VERSION, threads
     history = {**summary.get("history", {}), f"v{old}": _jsonable({k: card[k] for k in _CARD_KEYS})}
     runs.write_json(summary_path, {**summary, "history": history})
     config = runs.read_json(os.path.join(run_dir, "config.json"))
-    settings = dataclasses.replace(_settings(config, threads=threads), benchmark_version=version)
+    settings = dataclasses.replace(
+        card_settings(config, threads=threads), benchmark_version=version
+    )
     policy = shipped_policy(run_dir)
     if policy is None:
-        card, trials = score.score_gait_trials(_params(run_dir, settings.controller), settings)
+        card, trials = score.score_gait_trials(gait_params(run_dir, settings.controller), settings)
     else:
-        with _policy_threads(run_dir):
+        with policy_threads(run_dir):
             card, trials = score.score_policy_trials(policy, settings)
     write_trials(os.path.join(run_dir, "trials.csv"), trials)
     _store_card(run_dir, card)
