@@ -86,13 +86,7 @@ def score_run(run_dir: str, window: float, settings: WindowSettings) -> dict:
     scoring = dataclasses.replace(
         base, tiers=settings.tiers, benchmark_version=2, supply_window=window, seeds=settings.seeds
     )
-    policy = verify.shipped_policy(run_dir)
-    if policy is None:
-        params = verify.gait_params(run_dir, scoring.controller)
-        card, _ = score.score_gait_trials(params, scoring)
-    else:
-        with verify.policy_threads(run_dir):
-            card, _ = score.score_policy_trials(policy, scoring)
+    card, _ = verify.score_run(run_dir, scoring)
     row = card["all"]
     return {
         "score_m": row["success_weighted_distance_m"]["mean"],

@@ -137,8 +137,18 @@ def rescore(run_dir: str, seeds: int | None = None, threads: int = 2) -> tuple[d
     Raises:
       OSError, KeyError, ValueError: On a run without a readable config or gait.
     """
+    return score_run(run_dir, run_settings(run_dir, seeds, threads))
+
+
+def run_settings(run_dir: str, seeds: int | None = None, threads: int = 2) -> score.ScoreSettings:
+    """`card_settings` of a run directory: its config.json and its stored card."""
     config = runs.read_json(os.path.join(run_dir, "config.json"))
-    settings = card_settings(config, seeds, threads, stored_card(run_dir))
+    return card_settings(config, seeds, threads, stored_card(run_dir))
+
+
+def score_run(run_dir: str, settings: score.ScoreSettings) -> tuple[dict, list[dict]]:
+    """Scores a run's selected gait or policy under `settings`: `(card, trials)` as
+    `score.score_gait_trials` (an SB3 policy with single-threaded torch)."""
     policy = shipped_policy(run_dir)
     if policy is None:
         return score.score_gait_trials(gait_params(run_dir, settings.controller), settings)
@@ -402,12 +412,7 @@ def upgrade_run(run_dir: str, version: int = protocol.BENCHMARK_VERSION, threads
     settings = dataclasses.replace(
         card_settings(config, threads=threads), benchmark_version=version
     )
-    policy = shipped_policy(run_dir)
-    if policy is None:
-        card, trials = score.score_gait_trials(gait_params(run_dir, settings.controller), settings)
-    else:
-        with policy_threads(run_dir):
-            card, trials = score.score_policy_trials(policy, settings)
+    card, trials = score_run(run_dir, settings)
     write_trials(os.path.join(run_dir, "trials.csv"), trials)
     _store_card(run_dir, card)
     return True

@@ -33,7 +33,6 @@ import pandas as pd
 from absl import app, flags
 
 from cpg_suite import electrical, protocol, thermal
-from cpg_suite.harness import runs
 from cpg_suite.protocol import score, verify
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -44,18 +43,12 @@ FIELDS = (
 )  # fmt: skip
 
 
-def card_settings(run_dir: str) -> score.ScoreSettings:
-    """The settings the run's card was scored with (`verify.card_settings`)."""
-    config = runs.read_json(os.path.join(run_dir, "config.json"))
-    return verify.card_settings(config, card=verify.stored_card(run_dir))
-
-
 def run_policy(run_dir: str) -> Callable[[dict], np.ndarray]:
     """The run's policy as the scorer steps it (a gait as `score.OpenLoopPolicy`)."""
     policy = verify.shipped_policy(run_dir)
     if policy is not None:
         return policy
-    settings = card_settings(run_dir)
+    settings = verify.run_settings(run_dir)
     return score.OpenLoopPolicy(verify.gait_params(run_dir, settings.controller), settings.steps)
 
 
@@ -172,7 +165,9 @@ def main(argv: list[str]) -> None:
         print(summary(path))
         return
     root = os.path.join(verify.ARTIFACTS, values.runs) if values.runs else verify.ARTIFACTS
-    chosen = [r for r in verify.shipped_runs(root) if card_settings(r).controller != "feedback"]
+    chosen = [
+        r for r in verify.shipped_runs(root) if verify.run_settings(r).controller != "feedback"
+    ]
     if not chosen:
         print(f"no shipped gait or policy runs under {root}", file=sys.stderr)
         raise SystemExit(2)
@@ -182,7 +177,7 @@ def main(argv: list[str]) -> None:
         out.writerow(FIELDS)
         for run_dir in chosen:
             run = os.path.relpath(run_dir, verify.ARTIFACTS)
-            settings, policy = card_settings(run_dir), run_policy(run_dir)
+            settings, policy = verify.run_settings(run_dir), run_policy(run_dir)
             with verify.policy_threads(run_dir):
                 for seed in protocol.TEST[: values.seeds]:
                     out.writerows(trial_rows(run, seed, *trial_losses(policy, settings, seed)))
