@@ -56,7 +56,9 @@ def pairwise_matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     The products `a[i, j] * b[j, k]` are added in halves (j with j + n/2, the count
     padded to even with a zero, until one is left): the same order on every CPU, like
     `matmul`, but in log2(n) whole-array additions, fast enough for a policy network's
-    256-wide layers at every control step. Its last bits differ from `matmul`'s.
+    256-wide layers at every control step. Its last bits differ from `matmul`'s. The
+    products are laid out (n, r, c), so that each addition reads two contiguous blocks and
+    writes in place.
 
     Args:
       a: (r, n) array.
@@ -69,13 +71,15 @@ def pairwise_matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
       ValueError: If the inner dimensions differ.
     """
     a, b = _matrices(a, b)
-    terms = a[:, :, None] * b[None, :, :]
-    while terms.shape[1] > 1:
-        if terms.shape[1] % 2:
-            terms = np.concatenate([terms, np.zeros_like(terms[:, :1])], axis=1)
-        half = terms.shape[1] // 2
-        terms = terms[:, :half] + terms[:, half:]
-    return terms[:, 0, :]
+    terms = a.T[:, :, None] * b[:, None, :]  # (n, r, c): each half one contiguous block
+    n = len(terms)
+    while n > 1:
+        half = (n + 1) // 2
+        if n % 2:
+            terms[n // 2] += 0.0  # its partner is the padding zero (-0.0 becomes +0.0)
+        np.add(terms[: n // 2], terms[half:n], out=terms[: n // 2])
+        n = half
+    return terms[0]
 
 
 def weighted_sum(weights: np.ndarray, rows: np.ndarray) -> np.ndarray:

@@ -37,6 +37,32 @@ def test_matmul_and_sums_match_numpy():
         portable.pairwise_matmul(a, a)
 
 
+def _tree_sum(values: list[float]) -> float:
+    """The order `pairwise_matmul` promises, one scalar at a time: pad to even with +0.0,
+    add element j to element j + n/2, repeat until one is left."""
+    while len(values) > 1:
+        if len(values) % 2:
+            values = values + [0.0]
+        half = len(values) // 2
+        values = [values[j] + values[j + half] for j in range(half)]
+    return values[0]
+
+
+def test_pairwise_matmul_sums_in_its_documented_tree_bit_for_bit():
+    rng = np.random.default_rng(3)
+    for rows, inner, cols in ((3, 42, 5), (2, 256, 4), (1, 7, 3), (2, 1, 2)):
+        x, k = rng.standard_normal((rows, inner)), rng.standard_normal((inner, cols))
+        x[0, :] = -0.0  # a row of products that are all -0.0: the padding's +0.0 shows
+        expect = np.array(
+            [
+                [_tree_sum([x[i, j] * k[j, c] for j in range(inner)]) for c in range(cols)]
+                for i in range(rows)
+            ]
+        )
+        got = portable.pairwise_matmul(x, k)
+        assert got.view(np.int64).tolist() == expect.view(np.int64).tolist()
+
+
 def test_cholesky_of_definite_semidefinite_and_zero_matrices():
     rng = np.random.default_rng(1)
     a = rng.standard_normal((11, 11))
