@@ -2,16 +2,19 @@
 
     python results/protocol/ppo_joints_under_limit/probe.py [POLICY_DIR ...]
 
-For each folder (default: `joints_seed0_final` here), its final policy (`final_model.zip`,
-`final_vecnormalize.pkl`; the run's settings from its `config.json`, or for `<name>_final`
-from the shipped run `results/protocol/runs/ppo/darwin_walk/<name>`) walks 8 robots of
-`darwin_walk` (seeds 100-107, neither
-validation nor test seeds) for up to 16 s under benchmark version 2, once with the mean
-action (as validation and test score it) and once with actions sampled from the policy (as
-in training). Printed per robot: the control step its episode ended, why (fall,
-brownout or time limit), the distance walked and the worst 1 s mean supply current; and,
-for the mean actions, the episode's discounted return at γ = 0.99 (the PPO default) and
-0.999 beside the speed a steady gait walking the whole 16 s trial needs to earn as much,
+For each folder (default: `joints_seed0_final` here), its final policy walks 8 robots of
+`darwin_walk` (seeds 100-107, neither validation nor test seeds) for up to 16 s under
+benchmark version 2, once with the mean action (as validation and test score it) and, for
+Stable-Baselines3, once with actions sampled from the policy (as in training). The policy
+is Stable-Baselines3's (`final_model.zip`, `final_vecnormalize.pkl`; the run's settings
+from its `config.json`, or for `<name>_final` from the shipped run
+`results/protocol/runs/ppo/darwin_walk/<name>`) or, for PPO on MJX, the last parameters of
+its checkpoint exported as the shipped policies are (`final_policy.npz`,
+`baselines.ppo_mjx.export_policy`: the mean action only, the log-std is not exported).
+Printed per robot: the control step its episode ended, why (fall, brownout or time limit),
+the distance walked and the worst 1 s mean supply current; and, for the mean actions, the
+episode's discounted return at γ = 0.99 (the PPO default) and 0.999 beside the speed a
+steady gait walking the whole 16 s trial needs to earn as much,
 v = G (1 − γ) / (Δt (1 − γ^1000)).
 """
 
@@ -27,10 +30,11 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3 import PPO
 
 from cpg_suite import darwin, protocol, vector
-from cpg_suite.harness import sb3
+from cpg_suite.harness import exported, sb3
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SHIPPED = os.path.join(os.path.dirname(HERE), "runs", "ppo", "darwin_walk")
+MJX_POLICY = "final_policy.npz"  # PPO on MJX's last parameters (`export_policy`)
 SEEDS = range(100, 108)  # a choice: seeds that neither validation nor the test uses
 GAMMAS = (0.99, 0.999)
 STEPS = 1000  # control steps: 16 s
@@ -39,9 +43,6 @@ STEPS = 1000  # control steps: 16 s
 def probe(run_dir: str, deterministic: bool) -> list[tuple]:
     """(end step, cause, distance m, worst 1 s window A, discounted returns at `GAMMAS`)
     for each robot."""
-    with open(_config_path(run_dir), encoding="utf-8") as f:
-        settings = json.load(f)["settings"]
-    policy = sb3.TrainedPolicy.load(run_dir, PPO, types.SimpleNamespace(**settings), which="final")
     env = vector.DarwinVectorEnv(
         "darwin_walk",
         len(SEEDS),
@@ -50,15 +51,13 @@ def probe(run_dir: str, deterministic: bool) -> list[tuple]:
         time_limit=STEPS * darwin.CONTROL_TIMESTEP,
         supply=protocol.supply_limit(2),
     )
+    act = _policy(run_dir, deterministic, env.single_observation_space)
     observations, _ = env.reset(seed=list(SEEDS))
-    keys = sb3.observation_keys(env.single_observation_space)
     ended: dict[int, tuple] = {}
     distance = np.zeros(len(SEEDS))
     discounted = np.zeros((len(GAMMAS), len(SEEDS)))
     for step in range(1, STEPS + 1):
-        flat = policy.normalizer.normalize_obs(sb3.flatten(observations, keys))
-        actions, _ = policy.model.predict(flat, deterministic=deterministic)
-        observations, rewards, terminated, truncated, infos = env.step(np.clip(actions, -1, 1))
+        observations, rewards, terminated, truncated, infos = env.step(act(observations))
         running = np.array([i not in ended for i in range(len(SEEDS))])
         distance += np.where(running, rewards, 0.0)
         for g, gamma in enumerate(GAMMAS):
@@ -72,6 +71,28 @@ def probe(run_dir: str, deterministic: bool) -> list[tuple]:
             break
     env.close()
     return [ended[i] for i in range(len(SEEDS))]
+
+
+def _policy(run_dir: str, deterministic: bool, space):
+    """The folder's final policy as a function of the robots' observations to their actions
+    in [−1, 1]: PPO on MJX's exported one (mean actions), or Stable-Baselines3's."""
+    if os.path.exists(os.path.join(run_dir, MJX_POLICY)):
+        if not deterministic:
+            raise ValueError("an exported PPO-on-MJX policy gives its mean action only")
+        policy = exported.NumpyPolicy.load(os.path.join(run_dir, MJX_POLICY))
+        policy.reset_batch(len(SEEDS))
+        return policy.act_batch
+    with open(_config_path(run_dir), encoding="utf-8") as f:
+        settings = json.load(f)["settings"]
+    policy = sb3.TrainedPolicy.load(run_dir, PPO, types.SimpleNamespace(**settings), which="final")
+    keys = sb3.observation_keys(space)
+
+    def act(observations):
+        flat = policy.normalizer.normalize_obs(sb3.flatten(observations, keys))
+        actions, _ = policy.model.predict(flat, deterministic=deterministic)
+        return np.clip(actions, -1, 1)
+
+    return act
 
 
 def _config_path(policy_dir: str) -> str:
@@ -91,7 +112,8 @@ def steady_speed(discounted_return: float, gamma: float) -> float:
 
 def main(run_dirs: list[str]) -> None:
     for run_dir in run_dirs:
-        for deterministic in (True, False):
+        exported_policy = os.path.exists(os.path.join(run_dir, MJX_POLICY))
+        for deterministic in (True,) if exported_policy else (True, False):
             kind = "mean" if deterministic else "sampled"
             print(f"{os.path.relpath(run_dir, HERE)}, {kind} actions:")
             for seed, (step, cause, metres, worst, returns) in zip(
