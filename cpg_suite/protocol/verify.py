@@ -435,11 +435,8 @@ def _expected_cost(run_dir: str) -> float:
     in Python at every control step; about 4x per step in `verify --quick`'s profile), plus
     a fixed 0.2 M steps for loading the run."""
     steps = (stored_card(run_dir) or {}).get("scoring_sim_steps", 0)
-    per_step = 1.0
-    policy = any(os.path.exists(os.path.join(run_dir, f)) for f in (_POLICY, _EXPORTED))
-    if policy or run_settings(run_dir).controller == "feedback":
-        per_step = 4.0
-    return steps * per_step + 2e5
+    python_per_step = _copied(run_dir) != COPIED or run_settings(run_dir).controller == "feedback"
+    return steps * (4.0 if python_per_step else 1.0) + 2e5
 
 
 def verify(

@@ -76,7 +76,7 @@ def probe(run_dir: str, deterministic: bool) -> list[tuple]:
 def _policy(run_dir: str, deterministic: bool, space):
     """The folder's final policy as a function of the robots' observations to their actions
     in [−1, 1]: PPO on MJX's exported one (mean actions), or Stable-Baselines3's."""
-    if os.path.exists(os.path.join(run_dir, MJX_POLICY)):
+    if _exported(run_dir):
         if not deterministic:
             raise ValueError("an exported PPO-on-MJX policy gives its mean action only")
         policy = exported.NumpyPolicy.load(os.path.join(run_dir, MJX_POLICY))
@@ -93,6 +93,11 @@ def _policy(run_dir: str, deterministic: bool, space):
         return np.clip(actions, -1, 1)
 
     return act
+
+
+def _exported(run_dir: str) -> bool:
+    """Whether the folder holds an exported PPO-on-MJX policy (else Stable-Baselines3's)."""
+    return os.path.exists(os.path.join(run_dir, MJX_POLICY))
 
 
 def _config_path(policy_dir: str) -> str:
@@ -112,8 +117,7 @@ def steady_speed(discounted_return: float, gamma: float) -> float:
 
 def main(run_dirs: list[str]) -> None:
     for run_dir in run_dirs:
-        exported_policy = os.path.exists(os.path.join(run_dir, MJX_POLICY))
-        for deterministic in (True,) if exported_policy else (True, False):
+        for deterministic in (True,) if _exported(run_dir) else (True, False):
             kind = "mean" if deterministic else "sampled"
             print(f"{os.path.relpath(run_dir, HERE)}, {kind} actions:")
             for seed, (step, cause, metres, worst, returns) in zip(
