@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 
 import mujoco
@@ -140,10 +141,16 @@ def check_continuous_action(action, spec: specs.BoundedArray) -> np.ndarray:
             arr = arr.reshape(spec.shape)
         else:
             raise ValueError(f"action has shape {arr.shape}, expected {spec.shape}")
-    if not np.isfinite(arr).all():
+    if not _all_finite(arr):
         raise ValueError(f"action contains NaN or infinite values: {arr!r}")
     # `np.clip` for finite values, without its Python wrapper's cost on the hot path.
     return np.minimum(np.maximum(arr, spec.minimum), spec.maximum)
+
+
+def _all_finite(arr: np.ndarray) -> bool:
+    """`np.isfinite(arr).all()` for the few numbers of an action, in Python: a fraction
+    of NumPy's two calls."""
+    return all(map(math.isfinite, arr.reshape(-1).tolist()))
 
 
 def check_discrete_action(action, spec: specs.DiscreteArray) -> int:

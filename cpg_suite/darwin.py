@@ -60,6 +60,10 @@ INIT_NOISE = 0.01  # rad: U(−x, x) added to each leg joint of the initial post
 _STANCE_FRACTION = 0.05  # of body weight: a foot carrying more is a stance foot.
 _WALK_VIZ_SPEED = 0.2  # m/s shown as full reward colour.
 _BALANCE_VIZ_DISTANCE = 0.05  # m of COP offset shown as zero reward colour.
+# 1 and 1/2 as 0-d arrays (read-only): NumPy converts a Python float operand on every
+# call, which costs more than the arithmetic on the hot path's 12-vectors.
+_ONE, _HALF = (np.array(x) for x in (1.0, 0.5))
+_ONE.flags.writeable = _HALF.flags.writeable = False
 
 FOOT_GEOMS = ("foot_l", "foot_r")  # the soles' collision boxes, left then right
 FLOOR_GEOM = "floor"
@@ -360,7 +364,9 @@ class Physics(mujoco.Physics):
         state = self.data.ptr
         self._qpos, self._qvel, self._xpos = state.qpos, state.qvel, state.xpos
         self._sensordata, self._ctrl = state.sensordata, state.ctrl
+        self._actuator_force = state.actuator_force
         self._dof_damping = self.model.ptr.dof_damping
+        self._pointers = (self.model.ptr, state)  # what `mj_step` takes
         self._leg_qpos = np.array(
             [model.jnt_qposadr[model.name2id(n, "joint")] for n in cpg.LEG_JOINTS]
         )
@@ -415,9 +421,8 @@ class Physics(mujoco.Physics):
             or model.opt.integrator == mj.mjtIntegrator.mjINT_RK4
         ):
             raise ValueError("expects the legs' then the arms' servos and a one-stage integrator")
-        self._step_force = np.zeros((0, model.nu))  # per physics step of the last `substeps`
-        self._step_qvel = np.zeros((0, model.nv))
-        self._step_sensors = np.zeros((0, model.nsensordata))
+        # Per physics step of the last `substeps`: servo forces, velocities, sensors.
+        self._record_into(np.zeros((0, model.nu)), np.zeros((0, model.nv)))
         self._step_velocity = np.zeros((0, model.nu))  # the servos' part of `_step_qvel`
         self._meter: electrical.SupplyMeter | None = None  # `supply_currents`' buffers
         self._leg_range = model.jnt_range[[model.name2id(n, "joint") for n in cpg.LEG_JOINTS]]
@@ -440,10 +445,11 @@ class Physics(mujoco.Physics):
         Args:
           nstep: Physics steps.
         """
-        np.copyto(self._warnings_before, self._warnings)  # `check_invalid_state`, inline
+        counts = self._warnings.tobytes()  # `check_invalid_state`, inline
         self.substeps(nstep, finish=True)
-        mj.mj_step1(self.model.ptr, self.data.ptr)
-        self._raise_new_warnings()
+        mj.mj_step1(*self._pointers)
+        if self._warnings.tobytes() != counts:
+            self._raise_new_warnings(counts)
 
     def substeps(
         self, nstep: int, finish: bool = False, record=None, sensors: bool = False
@@ -461,23 +467,20 @@ class Physics(mujoco.Physics):
         Returns:
           The values `record` returned (empty without one).
         """
-        model, data = self.model.ptr, self.data.ptr
+        model, data = self._pointers
         if len(self._step_force) != nstep:
-            self._step_force = np.zeros((nstep, model.nu))
-            self._step_qvel = np.zeros((nstep, model.nv))
-            self._step_sensors = np.zeros((nstep, model.nsensordata))
-        force, qvel, records = self._step_force, self._step_qvel, []
+            self._record_into(np.zeros((nstep, model.nu)), np.zeros((nstep, model.nv)))
+        records = []
         readings = self._step_sensors if sensors else None
-        actuator_force, velocity = data.actuator_force, data.qvel  # views of the state
-        sensordata = data.sensordata
+        actuator_force, velocity, sensordata = self._actuator_force, self._qvel, self._sensordata
         step = mj.mj_step
-        for i in range(nstep):
+        for i, (force_row, qvel_row) in enumerate(self._step_rows):
             if finish and i == 0:
                 mj.mj_step2(model, data)
             else:
                 step(model, data)
-            force[i] = actuator_force
-            qvel[i] = velocity
+            force_row[...] = actuator_force  # into views made once: cheaper than `force[i]`
+            qvel_row[...] = velocity
             if readings is not None:
                 readings[i] = sensordata
             if record is not None:
@@ -488,7 +491,12 @@ class Physics(mujoco.Physics):
         """Makes `substeps` of `len(force)` steps record into these (steps, nu) and
         (steps, nv) arrays: views of a caller's larger buffers (`vector.DarwinVectorEnv`
         keeps all its robots' records in one array)."""
+        self._record_into(force, qvel)
+
+    def _record_into(self, force: np.ndarray, qvel: np.ndarray) -> None:
+        """`substeps`' records: these arrays, a view of each of their rows, sensor rows."""
         self._step_force, self._step_qvel = force, qvel
+        self._step_rows = list(zip(force, qvel))
         self._step_sensors = np.zeros((len(force), self.model.nsensordata))
 
     def sensor_steps(self) -> tuple[np.ndarray, ...]:
@@ -509,14 +517,17 @@ class Physics(mujoco.Physics):
         """dm_control's check (a new invalid-state warning raises `PhysicsError`, or is
         logged inside `suppress_physics_errors`), with NumPy's `any` where dm_control calls
         Python's, which iterates the warning counts one by one on every control step."""
-        np.copyto(self._warnings_before, self._warnings)
+        counts = self._warnings.tobytes()
         yield
-        self._raise_new_warnings()
+        if self._warnings.tobytes() != counts:
+            self._raise_new_warnings(counts)
 
-    def _raise_new_warnings(self) -> None:
-        """The end of `check_invalid_state`: a warning counted since `_warnings_before`
+    def _raise_new_warnings(self, counts: bytes) -> None:
+        """The end of `check_invalid_state`: a warning counted since the warning counts
+        were `counts` (their bytes: comparing them is the cheap test on every step)
         raises `PhysicsError` (or is logged)."""
-        np.greater(self._warnings, self._warnings_before, out=self._new_warnings)
+        before = np.frombuffer(counts, dtype=self._warnings.dtype)
+        np.greater(self._warnings, before, out=self._new_warnings)
         if self._new_warnings.any():
             names = np.compress(self._new_warnings, list(mj.mjtWarning.__members__))
             message = f"Physics state is invalid. Warning(s) raised: {', '.join(names)}"
@@ -888,7 +899,8 @@ class Physics(mujoco.Physics):
 
     def action_to_targets(self, action: np.ndarray) -> np.ndarray:
         """Normalized action in [−1, 1] -> leg joint angles, rad."""
-        return self._leg_low + (np.asarray(action) + 1.0) * 0.5 * self._leg_span
+        one, half = _ONE, _HALF  # 1.0 and 0.5: 0-d arrays spare NumPy a conversion per call
+        return self._leg_low + (np.asarray(action) + one) * half * self._leg_span
 
 
 class CPGTask(base.Task):

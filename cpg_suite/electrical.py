@@ -171,6 +171,13 @@ class SupplyMeter:
         self._current = np.zeros((*shape, servos))
         self._power = np.zeros((*shape, servos))
         self._total = np.zeros(shape)
+        # The constants as 0-d arrays: NumPy converts a Python float on every call, which
+        # costs more than the operation on these small arrays; the values are the same.
+        self._constants = tuple(
+            np.array(c, dtype=np.float64)
+            for c in (TORQUE_CONSTANT, RESISTANCE / TORQUE_CONSTANT, 0.0, SUPPLY_VOLTAGE)
+        )
+        self._idle = np.array(IDLE_CURRENT, dtype=np.float64)
 
     def __call__(self, force: np.ndarray, velocity: np.ndarray, damping: np.ndarray) -> np.ndarray:
         """The supply current after each step, A, as `supply_current(force, velocity,
@@ -180,15 +187,16 @@ class SupplyMeter:
           force, velocity: (*steps, servos) float64 arrays; damping: broadcastable to them
             ((servos,), or (robots, 1, servos) for robots × steps).
         """
+        torque_constant, volts_per_newton_metre, zero, supply_voltage = self._constants
         current = np.multiply(damping, velocity, out=self._current)
         np.subtract(force, current, out=current)
-        np.divide(current, TORQUE_CONSTANT, out=current)  # `motor_current`
-        power = np.multiply(force, RESISTANCE / TORQUE_CONSTANT, out=self._power)
+        np.divide(current, torque_constant, out=current)  # `motor_current`
+        power = np.multiply(force, volts_per_newton_metre, out=self._power)
         np.multiply(power, current, out=power)  # `input_power`
-        np.maximum(power, 0.0, out=power)
+        np.maximum(power, zero, out=power)
         total = np.add.reduce(power, axis=-1, out=self._total)  # `np.sum`'s reduction
-        np.divide(total, SUPPLY_VOLTAGE, out=total)
-        return np.add(total, IDLE_CURRENT, out=total)
+        np.divide(total, supply_voltage, out=total)
+        return np.add(total, self._idle, out=total)
 
 
 class SupplyMonitor:

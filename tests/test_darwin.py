@@ -283,3 +283,27 @@ def test_reading_the_foot_loads_leaves_the_trajectory_alone():
         return np.array(states)
 
     np.testing.assert_array_equal(trajectory(True), trajectory(False))
+
+
+def test_a_new_invalid_state_warning_raises_or_is_logged_as_dm_control_does(caplog):
+    """`Physics.step` and `check_invalid_state` compare the warning counts' bytes on every
+    step; a warning that appears raises `PhysicsError` naming it, or is logged inside
+    `suppress_physics_errors`, and a step without one raises nothing."""
+    from dm_control.rl import control
+
+    env = darwin.walk(random=0)
+    env.reset()
+    env.physics.step(8)  # a good state: no warning
+    env.physics.data.qpos[2] = np.nan
+    with pytest.raises(control.PhysicsError, match="mjWARN_BADQPOS"):
+        env.physics.step(8)
+    env.reset()
+    env.physics.data.qpos[2] = np.nan
+    with env.physics.suppress_physics_errors():
+        env.physics.step(8)
+    assert "mjWARN_BADQPOS" in caplog.text
+    env.reset()
+    env.physics.data.qpos[2] = np.nan
+    with pytest.raises(control.PhysicsError, match="mjWARN_BADQPOS"):
+        with env.physics.check_invalid_state():
+            mj.mj_step(env.physics.model.ptr, env.physics.data.ptr)
