@@ -515,8 +515,8 @@ class Physics(mujoco.Physics):
     @contextlib.contextmanager
     def check_invalid_state(self):
         """dm_control's check (a new invalid-state warning raises `PhysicsError`, or is
-        logged inside `suppress_physics_errors`), with NumPy's `any` where dm_control calls
-        Python's, which iterates the warning counts one by one on every control step."""
+        logged inside `suppress_physics_errors`); the counts' bytes are compared on every
+        step, and only a difference is looked into (`_raise_new_warnings`)."""
         counts = self._warnings.tobytes()
         yield
         if self._warnings.tobytes() != counts:
@@ -899,8 +899,7 @@ class Physics(mujoco.Physics):
 
     def action_to_targets(self, action: np.ndarray) -> np.ndarray:
         """Normalized action in [−1, 1] -> leg joint angles, rad."""
-        one, half = _ONE, _HALF  # 1.0 and 0.5: 0-d arrays spare NumPy a conversion per call
-        return self._leg_low + (np.asarray(action) + one) * half * self._leg_span
+        return self._leg_low + (np.asarray(action) + _ONE) * _HALF * self._leg_span
 
 
 class CPGTask(base.Task):

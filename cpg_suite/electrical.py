@@ -175,9 +175,14 @@ class SupplyMeter:
         # costs more than the operation on these small arrays; the values are the same.
         self._constants = tuple(
             np.array(c, dtype=np.float64)
-            for c in (TORQUE_CONSTANT, RESISTANCE / TORQUE_CONSTANT, 0.0, SUPPLY_VOLTAGE)
+            for c in (
+                TORQUE_CONSTANT,
+                RESISTANCE / TORQUE_CONSTANT,
+                0.0,
+                SUPPLY_VOLTAGE,
+                IDLE_CURRENT,
+            )
         )
-        self._idle = np.array(IDLE_CURRENT, dtype=np.float64)
 
     def __call__(self, force: np.ndarray, velocity: np.ndarray, damping: np.ndarray) -> np.ndarray:
         """The supply current after each step, A, as `supply_current(force, velocity,
@@ -187,7 +192,7 @@ class SupplyMeter:
           force, velocity: (*steps, servos) float64 arrays; damping: broadcastable to them
             ((servos,), or (robots, 1, servos) for robots × steps).
         """
-        torque_constant, volts_per_newton_metre, zero, supply_voltage = self._constants
+        torque_constant, volts_per_newton_metre, zero, supply_voltage, idle = self._constants
         current = np.multiply(damping, velocity, out=self._current)
         np.subtract(force, current, out=current)
         np.divide(current, torque_constant, out=current)  # `motor_current`
@@ -196,7 +201,7 @@ class SupplyMeter:
         np.maximum(power, zero, out=power)
         total = np.add.reduce(power, axis=-1, out=self._total)  # `np.sum`'s reduction
         np.divide(total, supply_voltage, out=total)
-        return np.add(total, self._idle, out=total)
+        return np.add(total, idle, out=total)
 
 
 class SupplyMonitor:
