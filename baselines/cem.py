@@ -41,13 +41,16 @@ from absl import flags
 from cpg_suite import cli, portable, progress
 from cpg_suite.harness import grids, interface, optimize, runs
 
-# Thesis Table 6.3 (K, noise, elite), plus the variants of Sec. 6.3: the lateral penalty
-# and noise 0.2 / 1.0 (K 10, elite 2). Names are run-name prefixes.
+# Thesis Table 6.3 (K, noise, elite), plus the variants of Sec. 6.3: the lateral penalty,
+# noise 0.2 / 1.0 (K 10, elite 2) and K = 70 / 100 (elite 2, noise 0.8; "not as good", no
+# number given). Names are run-name prefixes.
 TABLE6_3 = {
     **{f"K10_n0_e{e}": dict(population=10, noise=0.0, elite=e) for e in (1, 2, 3, 4)},
     **{f"K10_n0.8_e{e}": dict(population=10, noise=0.8, elite=e) for e in (1, 2, 3, 4)},
     "K20_n0.8_e2": dict(population=20, noise=0.8, elite=2),
     "K50_n0.8_e2": dict(population=50, noise=0.8, elite=2),
+    "K70_n0.8_e2": dict(population=70, noise=0.8, elite=2),
+    "K100_n0.8_e2": dict(population=100, noise=0.8, elite=2),
     "K10_n0.8_e2_lateral": dict(population=10, noise=0.8, elite=2, lateral_penalty=1.0),
     "K10_n0.2_e2": dict(population=10, noise=0.2, elite=2),
     "K10_n1_e2": dict(population=10, noise=1.0, elite=2),

@@ -3,13 +3,16 @@ r"""The study's crawler experiments (thesis Sec. 4.1.7), one command.
   python -m baselines.experiments.crawler_experiments --output_dir=runs/crawler --seeds=5
 
 Writes run directories under `<output_dir>/<algo>/{tokic,crawler_walk}/...` and, beside
-them, `crawler_experiments.md` with one table per experiment:
+them, `crawler_experiments.md` with one table per experiment and `crawler_realtime.csv`
+with a row per run of b-d (its `last_moves_m`: the displacement of its last 100 moves,
+learning on, as the study's learners walked while they learned):
 
   a. the complete `tokic` model: value and policy iteration — the greedy cycle, the values
      of the six cycle states over 30 iterations of each (thesis Fig. 4.4; `fig4_4.csv`),
      and a γ sweep (the study: walking needs γ ≥ 0.8);
   b. a model of the MuJoCo crawler gathered by N random moves, then value iteration (the
-     study's approach 1b; ~1000 moves gave an acceptable model);
+     study's approach 1b; ~1000 moves gave an acceptable model; 5000 moves measure every
+     transition: our crawler's complete model);
   c. real-time learning on the MuJoCo crawler with the study's ε schedule (0.9 for 100
      moves, 0 at move 300), 1000 moves, all seven algorithms: the greedy policy's cycle and
      its displacement over 100 moves, and the RMS error of the values (thesis Fig. 4.6;
@@ -59,7 +62,10 @@ REALTIME = (
     "td0",
     "td_lambda",
 )
-EXPLORE_MOVES = (50, 100, 200, 500, 1000)
+# Random moves gathering the model of approach 1b; 5000 measures every transition many
+# times over: the complete model of our crawler, which the study's CR-6 compares with.
+EXPLORE_MOVES = (50, 100, 200, 500, 1000, 5000)
+LAST = 100  # moves at the end of a real-time run whose displacement `last_moves_m` sums
 GAMMAS = (0.5, 0.6, 0.7, 0.75, 0.79, 0.8, 0.85, 0.9, 0.93, 0.95)
 # Where the study reports each method's real-time result: ids of analysis/published.csv
 # (the one place the study's numbers are typed; u.d. = its undefined distance unit).
@@ -75,7 +81,8 @@ PUBLISHED = {
 
 
 def _crawler_run(output_dir, algo, name, seed, resume, **overrides) -> dict:
-    """One run on `crawler_walk` (real time unless it explores first); returns its summary."""
+    """One run on `crawler_walk` (real time unless it explores first); returns its summary
+    with `last_moves_m`, the displacement of its last `LAST` moves while it learns."""
     realtime = algo in runner.PLANNERS and not overrides.get("explore_moves")
     settings = TabularSettings(
         task="crawler_walk",
@@ -86,8 +93,9 @@ def _crawler_run(output_dir, algo, name, seed, resume, **overrides) -> dict:
         **overrides,
         **({"realtime": True} if realtime else {}),
     )
-    _, summary = runner.execute(settings, resume=resume)
-    return summary
+    run_dir, summary = runner.execute(settings, resume=resume)
+    moves = pd.read_csv(os.path.join(run_dir, "progress.csv"))["reward_m"].to_numpy()
+    return {**summary, "last_moves_m": float(moves[-LAST:].sum())}
 
 
 def _stats(values) -> str:
@@ -168,7 +176,9 @@ def _gamma_sweep(model: models.TabularModel) -> list[str]:
     return lines
 
 
-def explore_experiments(output_dir: str, seeds: int, resume: bool) -> list[str]:
+def explore_experiments(
+    output_dir: str, seeds: int, resume: bool
+) -> tuple[list[str], pd.DataFrame]:
     """(b) Gather a model by N random moves, then value iteration.
 
     Args:
@@ -177,16 +187,17 @@ def explore_experiments(output_dir: str, seeds: int, resume: bool) -> list[str]:
       resume: Reuse finished runs.
 
     Returns:
-      The markdown lines of section b.
+      The markdown lines of section b, and one row per run.
     """
     jobs = [(n, s) for n in EXPLORE_MOVES for s in range(seeds)]
     results = {n: [] for n in EXPLORE_MOVES}
+    rows = []
     for n, s in progress.track(jobs, desc="explore", unit="run"):
-        results[n].append(
-            _crawler_run(
-                output_dir, "value_iteration", f"explore{n}", s, resume, explore_moves=n, steps=n
-            )
+        r = _crawler_run(
+            output_dir, "value_iteration", f"explore{n}", s, resume, explore_moves=n, steps=n
         )
+        results[n].append(r)
+        rows.append(_row(f"explore{n}", "value_iteration", s, r))
     lines = [
         "## b. Model gathered by random exploration, then value iteration (approach 1b)",
         "",
@@ -206,7 +217,7 @@ def explore_experiments(output_dir: str, seeds: int, resume: bool) -> list[str]:
         "smaller displacement than with the complete model (CR-6).",
         "",
     ]
-    return lines
+    return lines, pd.DataFrame(rows)
 
 
 # The columns of `crawler_realtime.csv` taken from each run's summary.
@@ -217,7 +228,18 @@ REALTIME_COLUMNS = (
     "cycle_learned_reward_m",
     "final_rms",
     "learning_displacement_m",
+    "last_moves_m",
 )
+
+
+def _row(config: str, algo: str, seed: int, summary: dict) -> dict:
+    """A run's row of `crawler_realtime.csv`."""
+    return {
+        "config": config,
+        "algo": algo,
+        "seed": seed,
+        **{k: summary[k] for k in REALTIME_COLUMNS},
+    }
 
 
 def realtime_configs() -> list[tuple[str, str, dict]]:
@@ -246,9 +268,7 @@ def realtime_experiments(
     rows = []
     for (algo, name, overrides), s in progress.track(jobs, desc="crawler", unit="run"):
         r = _crawler_run(output_dir, algo, name, s, resume, steps=moves, **overrides)
-        rows.append(
-            {"config": name, "algo": algo, "seed": s, **{k: r[k] for k in REALTIME_COLUMNS}}
-        )
+        rows.append(_row(name, algo, s, r))
     df = pd.DataFrame(rows)
     return _realtime_table(df, moves), df
 
@@ -278,7 +298,9 @@ def _realtime_table(df: pd.DataFrame, moves: int) -> list[str]:
     return lines
 
 
-def stochastic_experiments(output_dir: str, seeds: int, moves: int, resume: bool) -> list[str]:
+def stochastic_experiments(
+    output_dir: str, seeds: int, moves: int, resume: bool
+) -> tuple[list[str], pd.DataFrame]:
     """(d) The stochastic variant with real-time value iteration.
 
     Args:
@@ -288,7 +310,7 @@ def stochastic_experiments(output_dir: str, seeds: int, moves: int, resume: bool
       resume: Reuse finished runs.
 
     Returns:
-      The markdown lines of section d.
+      The markdown lines of section d, and one row per run.
     """
     res = [
         _crawler_run(
@@ -296,6 +318,7 @@ def stochastic_experiments(output_dir: str, seeds: int, moves: int, resume: bool
         )
         for s in progress.track(range(seeds), desc="stochastic", unit="run")
     ]
+    rows = pd.DataFrame([_row("stochastic0.2", "value_iteration", s, r) for s, r in enumerate(res)])
     return [
         "## d. Stochastic variant (a move fails with probability 0.2)",
         "",
@@ -308,7 +331,7 @@ def stochastic_experiments(output_dir: str, seeds: int, moves: int, resume: bool
         "The study: good solutions are still found quickly, a 4-state cycle using both "
         "joints (CR-16).",
         "",
-    ]
+    ], rows
 
 
 @dataclasses.dataclass(frozen=True)
@@ -353,11 +376,12 @@ def run_experiments(settings: CrawlerExperimentSettings) -> list[str]:
     os.makedirs(out, exist_ok=True)
     lines = ["# The study's crawler experiments, measured", ""]
     lines += tokic_experiments(out)
-    lines += explore_experiments(out, seeds, resume)
+    explore, explored = explore_experiments(out, seeds, resume)
     realtime, df = realtime_experiments(out, seeds, moves, resume)
-    lines += realtime
-    lines += stochastic_experiments(out, seeds, moves, resume)
-    runs.write_text(os.path.join(out, "crawler_realtime.csv"), df.to_csv(index=False))
+    stochastic, noisy = stochastic_experiments(out, seeds, moves, resume)
+    lines += explore + realtime + stochastic
+    table = pd.concat([df, explored, noisy], ignore_index=True)
+    runs.write_text(os.path.join(out, "crawler_realtime.csv"), table.to_csv(index=False))
     runs.write_text(os.path.join(out, "crawler_experiments.md"), "\n".join(lines) + "\n")
     return lines
 

@@ -1,0 +1,23 @@
+"""`python -m analysis.study [--out=DIR]`: rebuilds the study's claims, numbers and report."""
+
+from __future__ import annotations
+
+if __name__ == "__main__":  # this program never renders a scene: no OpenGL backend
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+from absl import flags
+
+from analysis.study import build
+from cpg_suite import cli
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    print(build.build(flags.FLAGS.out))
+
+
+if __name__ == "__main__":
+    flags.DEFINE_string("out", build.OUT, "Folder of claims.csv, numbers.csv and report.md.")
+    cli.run(main, output_dirs=("out",))

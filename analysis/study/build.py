@@ -1,0 +1,124 @@
+r"""Rebuilds the study's verdicts, the published numbers beside ours, and the report.
+
+  python -m analysis.study                       # into results/study/
+  python -m analysis.study --out=DIR             # elsewhere (e.g. to compare)
+
+Reads the catalog (`analysis/catalog.csv`), the published numbers (`analysis/published.csv`)
+and the shipped run files (`analysis.study.evidence`); trains nothing. Writes:
+
+  claims.csv   a row per catalog claim and part: its verdict (holds, fails, mixed,
+               inconclusive, not testable here), the evidence line, and why where it
+               did not hold;
+  numbers.csv  a row per published number: ours from the same setting and measure with
+               its interval and seeds, or its role (a setting, a robot fact) or the reason
+               we have none;
+  report.md    each claim with its verdict and evidence, by chapter, the numbers table,
+               and the cost-per-round figure (`cem_cost_per_round.png`, thesis
+               Figs. 6.2-6.6, with matplotlib).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import os
+from collections import Counter
+
+from analysis.study import catalog, chapter4, chapter5, chapter6, numbers  # noqa: F401
+from analysis.study import verdicts as v
+from analysis.study.evidence import Evidence, MissingEvidence
+from analysis.study.registry import RULES
+
+OUT = os.path.join("results", "study")
+UNTESTED = "untested"  # a testable claim without a rule yet (the goal: none)
+CLAIM_FIELDS = (
+    "id",
+    "parent",
+    "chapter",
+    "place",
+    "statement",
+    "criterion",
+    "verdict",
+    "evidence",
+    "why",
+    "numbers",
+)
+
+
+def judge(rows: list[dict], ev: Evidence) -> list[dict]:
+    """Each catalog row with its verdict, evidence and why, in catalog order."""
+    done: dict[str, v.Verdict] = {}
+    for row in rows:
+        done[row["id"]] = _judge_one(row, ev)
+    for whole, parts in catalog.parts_of(rows).items():
+        if whole not in RULES:
+            verdict = v.combine([done[p] for p in parts])
+            summary = ", ".join(f"{p}: {done[p].verdict}" for p in parts)
+            done[whole] = v.Verdict(verdict, summary, _why_of_parts(parts, done))
+    return [
+        {
+            **{k: row[k] for k in CLAIM_FIELDS if k in row},
+            "verdict": done[row["id"]].verdict,
+            "evidence": done[row["id"]].evidence,
+            "why": done[row["id"]].why,
+        }
+        for row in rows
+    ]
+
+
+def _judge_one(row: dict, ev: Evidence) -> v.Verdict:
+    if row["testable"].startswith("no"):
+        return v.untestable(row["testable"].partition(":")[2].strip())
+    rule = RULES.get(row["id"])
+    if rule is None:
+        return _Untested("", "no rule yet")
+    try:
+        return rule(ev)
+    except MissingEvidence as e:
+        return v.Verdict(v.INCONCLUSIVE, "", f"runs missing: {e}")
+
+
+@dataclasses.dataclass(frozen=True)
+class _Untested:
+    evidence: str
+    why: str
+    verdict: str = UNTESTED
+
+
+def _why_of_parts(parts: list[str], done: dict) -> str:
+    return "; ".join(f"{p}: {done[p].why}" for p in parts if done[p].why)
+
+
+def write_csv(path: str, rows: list[dict], fields) -> None:
+    """Writes rows atomically (a temporary file, then renamed)."""
+    tmp = path + ".tmp"
+    with open(tmp, "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(fields), lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+    os.replace(tmp, path)
+
+
+def counts(claims: list[dict]) -> Counter:
+    """Verdicts of the whole claims (parts counted through their whole)."""
+    return Counter(c["verdict"] for c in claims if not c["parent"])
+
+
+def build(out: str = OUT, ev: Evidence | None = None) -> str:
+    """Writes claims.csv, numbers.csv and report.md (and the figure) into `out`.
+
+    Returns:
+      One line: how many claims have each verdict, and where the files are.
+    """
+    from analysis.study import report
+
+    ev = ev or Evidence()
+    os.makedirs(out, exist_ok=True)
+    rows = catalog.load()
+    claims = judge(rows, ev)
+    table = numbers.table(ev, rows)
+    write_csv(os.path.join(out, "claims.csv"), claims, CLAIM_FIELDS)
+    write_csv(os.path.join(out, "numbers.csv"), table, numbers.FIELDS)
+    report.write(out, claims, table, ev)
+    tally = ", ".join(f"{n} {k}" for k, n in sorted(counts(claims).items()))
+    return f"{sum(counts(claims).values())} claims ({tally}) -> {out}"

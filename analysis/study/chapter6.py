@@ -1,0 +1,575 @@
+"""Chapter 6: the Cross-Entropy Method, the 2-D toy of Sec. 6.1 and the DARwIn-OP runs.
+
+The DARwIn-OP claims are judged on the study's CEM runs in the settings of Table 6.3
+(`baselines.experiments.cem_study`, version-1 physics, 1000-step trials), ≥ 5 seeds per
+setting (docs/study.md#claim-by-claim). The thesis reports the best point of one run's
+per-round cost curve (Figs. 6.2-6.6), an in-sample figure; the primary reading here is the
+same: per seed, D = the best distance of the round's mean vector (sample 1; a round whose
+mean fell has none), R = the first round it came in. A fall counted for a run is a round
+whose mean vector fell (the algorithm never tests a mean before adopting it: Sec. 6.3).
+Comparisons between settings pair runs by seed (the same seed draws the same first round).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from analysis.study import verdicts as v
+from analysis.study.evidence import CEMRun, Evidence, MissingEvidence, best_of
+from analysis.study.registry import rule
+
+NO_NOISE = [f"K10_n0_e{e}" for e in (1, 2, 3, 4)]
+NOISE = [f"K10_n0.8_e{e}" for e in (1, 2, 3, 4)]
+TABLE = NO_NOISE + NOISE + ["K20_n0.8_e2", "K50_n0.8_e2"]  # the ten CEM rows of Table 6.3
+COLLAPSED = 1e-6  # σ (deg) below which the sampling distribution has collapsed
+SIMILAR = 0.25  # "about the same": within ±25 % of the pooled mean
+
+
+# --- per-run quantities -----------------------------------------------------------------
+
+
+def best(run: CEMRun, rounds: int | None = None) -> float:
+    """D: the run's best mean-vector distance (over its first `rounds` rounds), m."""
+    return best_of(run.mean_scores(), rounds)[0]
+
+
+def best_round(run: CEMRun) -> int:
+    """R: the first round of D."""
+    return best_of(run.mean_scores())[1]
+
+
+def best_trial(run: CEMRun) -> float:
+    """The best single trial's distance over the run (the secondary reading), m."""
+    return best_of(run.sample_scores())[0]
+
+
+def mean_falls(run: CEMRun, rounds: int | None = None) -> int:
+    """Rounds in which the run's mean vector fell (of its first `rounds`)."""
+    return int(run.progress["mean_fell"].to_numpy()[:rounds].sum())
+
+
+def fall_share(run: CEMRun) -> float:
+    """The share of rounds whose mean vector fell."""
+    return mean_falls(run) / len(run.progress)
+
+
+def first_fall(run: CEMRun) -> int:
+    """The first round whose mean vector fell (rounds + 1 if none)."""
+    fell = np.flatnonzero(run.progress["mean_fell"].to_numpy())
+    return int(fell[0]) + 1 if fell.size else len(run.progress) + 1
+
+
+def longest_fall_streak(run: CEMRun) -> int:
+    """The longest run of consecutive rounds whose mean vector fell."""
+    longest = current = 0
+    for fell in run.progress["mean_fell"].to_numpy():
+        current = current + 1 if fell else 0
+        longest = max(longest, current)
+    return longest
+
+
+def rounds_to(run: CEMRun, target: float) -> int:
+    """The first round whose mean vector (not fallen) reaches `target` (rounds + 1 if
+    never)."""
+    hit = np.flatnonzero(np.nan_to_num(run.mean_scores(), nan=-np.inf) >= target)
+    return int(hit[0]) + 1 if hit.size else len(run.progress) + 1
+
+
+def amplitudes(params: dict) -> np.ndarray:
+    """A params file's 11 amplitudes in the CPG's order (as the file lists them), deg."""
+    return np.array(list(params["amplitudes"].values()), dtype=np.float64)
+
+
+def hand_tuned(ev: Evidence) -> np.ndarray:
+    """The hand-tuned amplitudes (thesis Table 6.1), deg."""
+    return np.array(ev.computed("hand_tuned"), dtype=np.float64)
+
+
+def hand_tuned_trial(ev: Evidence, seed: int = 0) -> dict:
+    """The hand-tuned gait's training trial: round 1's mean vector of every study run."""
+    return ev.computed("hand_tuned_trials")[seed]
+
+
+def paired(ev: Evidence, a: str, b: str, f) -> tuple[list[float], list[float]]:
+    """f over the runs of settings a and b that share a seed, in seed order."""
+    runs_a = {r.seed: r for r in ev.cem(a)}
+    runs_b = {r.seed: r for r in ev.cem(b)}
+    seeds = sorted(set(runs_a) & set(runs_b))
+    return [f(runs_a[s]) for s in seeds], [f(runs_b[s]) for s in seeds]
+
+
+def above(ev: Evidence, a: str, b: str, f, label: str) -> v.Verdict:
+    """The paired CI of f(a) − f(b) above 0 (holds), below (fails), else inconclusive."""
+    x, y = paired(ev, a, b, f)
+    return v.paired_greater(x, y, label)
+
+
+def values(ev: Evidence, setting: str, f) -> list:
+    return [f(r) for r in ev.cem(setting)]
+
+
+# --- Sec. 6.1: the toy example -------------------------------------------------------
+
+
+def toy(ev: Evidence, noise: float, elite: int = 5, key: str = "final_error") -> list[float]:
+    """The toy of Sec. 6.1 (`study_evidence.toy`): per seed, the final error (the mean's
+    distance to 0 over the last 10 of 100 rounds) or trace Σ."""
+    return ev.computed("toy")[f"noise{noise:g}_elite{elite}"][key]
+
+
+@rule("CEMT-1")
+def cemt_1(ev: Evidence) -> v.Verdict:
+    cost = ev.computed("toy")["start_cost"]
+    ok = abs(cost - 11.31) < 0.005
+    return v.Verdict(v.HOLDS if ok else v.FAILS, f"cost of the mean (8, 8): {cost:.4f}")
+
+
+@rule("CEMT-2a")
+def cemt_2a(ev: Evidence) -> v.Verdict:
+    flags = [t < 1e-6 for t in toy(ev, 0.0, key="trace")]
+    return v.majority(flags, "no noise: trace Σ < 1e-6 after 100 rounds")
+
+
+@rule("CEMT-2b")
+def cemt_2b(ev: Evidence) -> v.Verdict:
+    errors = toy(ev, 0.0)
+    return v.majority([e > 1 for e in errors], f"no noise: final error > 1 ({_list(errors)})")
+
+
+@rule("CEMT-2c")
+def cemt_2c(ev: Evidence) -> v.Verdict:
+    return v.majority([e < 11.31 for e in toy(ev, 0.0)], "no noise: final error < 11.31")
+
+
+@rule("CEMT-3a")
+def cemt_3a(ev: Evidence) -> v.Verdict:
+    mean, low, high = v.mean_interval(toy(ev, 0.8))
+    return v.within(low, high, 0.03, 0.3, f"noise 0.8: final error {mean:.3f}")
+
+
+@rule("CEMT-3b")
+def cemt_3b(ev: Evidence) -> v.Verdict:
+    return v.paired_greater(toy(ev, 0.0), toy(ev, 0.8), "final error, noise 0 − noise 0.8")
+
+
+@rule("CEMT-3c")
+def cemt_3c(ev: Evidence) -> v.Verdict:
+    return _joined(
+        [
+            v.paired_greater(toy(ev, 0.8), toy(ev, 0.2), "final error, noise 0.8 − 0.2"),
+            v.paired_greater(toy(ev, 2.0), toy(ev, 0.8), "final error, noise 2.0 − 0.8"),
+        ]
+    )
+
+
+@rule("CEMT-4")
+def cemt_4(ev: Evidence) -> v.Verdict:
+    grid = {(n, e): toy(ev, n, e) for n in (0.0, 0.2, 0.8, 2.0) for e in (2, 5)}
+    cis = {k: v.mean_interval(x)[1:] for k, x in grid.items()}
+    keys = list(cis)
+    apart = sum(
+        cis[a][1] < cis[b][0] or cis[b][1] < cis[a][0]
+        for i, a in enumerate(keys)
+        for b in keys[i + 1 :]
+    )
+    text = f"noise (0, 0.2, 0.8, 2) × elite (2, 5): {apart} pairs with intervals apart"
+    return v.Verdict(v.HOLDS if apart else v.FAILS, text)
+
+
+# --- Sec. 6.3: the DARwIn-OP runs ------------------------------------------------------
+
+
+@rule("CEM-1")
+def cem_1(ev: Evidence) -> v.Verdict:
+    parts = [
+        v.majority(values(ev, s, lambda r: r.progress["sigma"].min() < COLLAPSED), f"{s} σ → 0")
+        for s in NO_NOISE
+    ]
+    return _joined(parts)
+
+
+@rule("CEM-2a")
+def cem_2a(ev: Evidence) -> v.Verdict:
+    flags = values(ev, "K10_n0_e1", lambda r: r.progress["sigma"].iloc[0] <= 1e-12)
+    return v.majority(flags, "K10_n0_e1: σ = 0 after round 1")
+
+
+@rule("CEM-2b")
+def cem_2b(ev: Evidence) -> v.Verdict:
+    hand = hand_tuned_trial(ev)["distance_m"]
+
+    def ok(r: CEMRun) -> bool:
+        trials = r.progress["best_distance_m"].to_numpy()
+        frozen = trials[1:].max() <= trials[0] + 1e-9
+        return bool(frozen and best_round(r) == 2 and best(r) > hand)
+
+    return v.majority(values(ev, "K10_n0_e1", ok), "K10_n0_e1: frozen after round 1, D in round 2")
+
+
+def _noise_beats_none(ev: Evidence) -> v.Verdict:
+    parts = [
+        above(ev, f"K10_n0.8_e{e}", f"K10_n0_e{e}", best, f"elite {e}: D(0.8) − D(0)")
+        for e in (1, 2, 3, 4)
+    ]
+    return _joined(parts)
+
+
+rule("CEM-3")(_noise_beats_none)
+
+
+def _elite_two_best(ev: Evidence, settings: list[str]) -> v.Verdict:
+    means = {s: float(np.mean(values(ev, s, best))) for s in settings}
+    parts = [above(ev, settings[1], s, best, f"D({settings[1]}) − D({s})") for s in settings]
+    parts = [p for s, p in zip(settings, parts) if s != settings[1]]
+    runner_up = max((s for s in settings if s != settings[1]), key=means.get)
+    top = max(means, key=means.get) == settings[1]
+    if any(p.verdict == v.FAILS for p in parts):
+        return _joined(parts)
+    to_next = above(ev, settings[1], runner_up, best, f"D({settings[1]}) − D({runner_up})")
+    verdict = v.HOLDS if top and to_next.verdict == v.HOLDS else v.INCONCLUSIVE
+    return v.Verdict(verdict, "; ".join(p.evidence for p in parts), to_next.why)
+
+
+@rule("CEM-4")
+def cem_4(ev: Evidence) -> v.Verdict:
+    return _joined([_elite_two_best(ev, NO_NOISE), _elite_two_best(ev, NOISE)])
+
+
+@rule("CEM-5")
+def cem_5(ev: Evidence) -> v.Verdict:
+    parts = []
+    for settings in (NO_NOISE, NOISE):
+        x, y = paired(ev, settings[3], settings[0], best)
+        tolerance = SIMILAR * abs(np.mean(x + y))
+        parts.append(v.paired_similar(x, y, f"D({settings[3]}) − D({settings[0]})", tolerance))
+    return _joined(parts)
+
+
+@rule("CEM-6a")
+def cem_6a(ev: Evidence) -> v.Verdict:
+    settings = NO_NOISE[2:] + NOISE[2:]
+    parts = [v.majority(values(ev, s, lambda r: longest_fall_streak(r) >= 2), s) for s in settings]
+    return _joined(parts, "two or more rounds running with the mean fallen")
+
+
+def _share_pair(ev: Evidence, settings: list[str], elites: tuple[int, int]) -> list[float]:
+    runs = [{r.seed: r for r in ev.cem(settings[e - 1])} for e in elites]
+    seeds = sorted(set(runs[0]) & set(runs[1]))
+    return [(fall_share(runs[0][s]) + fall_share(runs[1][s])) / 2 for s in seeds]
+
+
+@rule("CEM-6b")
+def cem_6b(ev: Evidence) -> v.Verdict:
+    parts = [
+        v.paired_greater(
+            _share_pair(ev, settings, (3, 4)),
+            _share_pair(ev, settings, (1, 2)),
+            f"fall share, mean(e3, e4) − mean(e1, e2), noise {settings[0][5:-3]}",
+        )
+        for settings in (NO_NOISE, NOISE)
+    ]
+    return _joined(parts)
+
+
+@rule("CEM-6c")
+def cem_6c(ev: Evidence) -> v.Verdict:
+    def early_sigma(r: CEMRun) -> float:
+        return float(r.progress["sigma"].iloc[:5].mean())
+
+    parts = [
+        above(ev, NO_NOISE[e], NO_NOISE[e - 1], early_sigma, f"σ rounds 1-5, e{e + 1} − e{e}")
+        for e in (1, 2, 3)
+    ]
+    return _joined(parts)
+
+
+@rule("CEM-7a")
+def cem_7a(ev: Evidence) -> v.Verdict:
+    flags = values(ev, "K10_n0_e2", lambda r: mean_falls(r) == 0)
+    return v.majority(flags, "K10_n0_e2: no mean falls")
+
+
+@rule("CEM-7b")
+def cem_7b(ev: Evidence) -> v.Verdict:
+    flags = values(ev, "K10_n0.8_e2", lambda r: mean_falls(r) > 0)
+    return v.majority(flags, "K10_n0.8_e2: some mean falls")
+
+
+@rule("CEM-8a")
+def cem_8a(ev: Evidence) -> v.Verdict:
+    return above(ev, "K10_n0.8_e2", "K10_n1_e2", best, "D(0.8) − D(1.0)")
+
+
+@rule("CEM-8b")
+def cem_8b(ev: Evidence) -> v.Verdict:
+    return above(ev, "K10_n0.8_e2", "K10_n0.2_e2", best, "D(0.8) − D(0.2)")
+
+
+@rule("CEM-8c")
+def cem_8c(ev: Evidence) -> v.Verdict:
+    return above(ev, "K10_n0.2_e2", "K10_n0.8_e2", best_round, "R(0.2) − R(0.8)")
+
+
+@rule("CEM-8d")
+def cem_8d(ev: Evidence) -> v.Verdict:
+    return above(ev, "K10_n0.2_e2", "K10_n0_e2", best, "D(0.2) − D(0)")
+
+
+@rule("CEM-8e")
+def cem_8e(ev: Evidence) -> v.Verdict:
+    ladder = ["K10_n0_e2", "K10_n0.2_e2", "K10_n0.8_e2", "K10_n1_e2"]
+    hand = hand_tuned(ev)
+
+    def from_hand(run: CEMRun) -> float:
+        return float(np.linalg.norm(amplitudes(run.mean_params) - hand))
+
+    parts = [
+        above(ev, hi, lo, from_hand, f"|final mean − hand-tuned|, {hi} − {lo}")
+        for lo, hi in zip(ladder, ladder[1:])
+    ]
+    return _joined(parts)
+
+
+@rule("CEM-9a")
+def cem_9a(ev: Evidence) -> v.Verdict:
+    return _joined(
+        [
+            above(ev, "K20_n0.8_e2", "K10_n0.8_e2", best, "D(K20) − D(K10)"),
+            above(ev, "K50_n0.8_e2", "K20_n0.8_e2", best, "D(K50) − D(K20)"),
+        ]
+    )
+
+
+def _catch_up(ev: Evidence, weight: int) -> tuple[list[float], list[float]]:
+    k10 = {r.seed: r for r in ev.cem("K10_n0.8_e2")}
+    k20 = {r.seed: r for r in ev.cem("K20_n0.8_e2")}
+    seeds = sorted(set(k10) & set(k20))
+    r10 = [float(best_round(k10[s])) for s in seeds]
+    r20 = [float(weight * rounds_to(k20[s], best(k10[s]))) for s in seeds]
+    return r10, r20
+
+
+@rule("CEM-9b")
+def cem_9b(ev: Evidence) -> v.Verdict:
+    r10, r20 = _catch_up(ev, 1)
+    return v.paired_greater(r10, r20, f"R10 − r20 (r20 {_list(r20, '.0f')})")
+
+
+@rule("CEM-9c")
+def cem_9c(ev: Evidence) -> v.Verdict:
+    r10, r20 = _catch_up(ev, 2)
+    return v.paired_greater(r10, r20, "R10 − 2 r20 (time in K 10 rounds)")
+
+
+@rule("CEM-9d")
+def cem_9d(ev: Evidence) -> v.Verdict:
+    return above(ev, "K20_n0.8_e2", "K10_n0.8_e2", lambda r: mean_falls(r, 50), "falls, K20 − K10")
+
+
+@rule("CEM-10a")
+def cem_10a(ev: Evidence) -> v.Verdict:
+    parts = [
+        above(ev, k, "K50_n0.8_e2", best, f"D({k}) − D(K50)")
+        for k in ("K70_n0.8_e2", "K100_n0.8_e2")
+    ]
+    if all(p.verdict == v.FAILS for p in parts):  # both below 0: K = 50 is better
+        return v.Verdict(v.HOLDS, "; ".join(p.evidence for p in parts))
+    if any(p.verdict == v.HOLDS for p in parts):
+        return v.Verdict(v.FAILS, "; ".join(p.evidence for p in parts), "more samples did better")
+    return v.Verdict(v.INCONCLUSIVE, "; ".join(p.evidence for p in parts), "an interval contains 0")
+
+
+@rule("CEM-10b")
+def cem_10b(ev: Evidence) -> v.Verdict:
+    runs = {s: {r.seed: best(r) for r in ev.cem(s)} for s in ("K20_n0.8_e2", "K50_n0.8_e2")}
+    parts = []
+    for k, name in ((70, "K70_n0.8_e2"), (100, "K100_n0.8_e2")):
+        big = {r.seed: best(r) for r in ev.cem(name)}
+        seeds = sorted(set(big) & set(runs["K20_n0.8_e2"]) & set(runs["K50_n0.8_e2"]))
+        gain = [
+            (runs["K50_n0.8_e2"][s] - runs["K20_n0.8_e2"][s]) / 30
+            - (big[s] - runs["K50_n0.8_e2"][s]) / (k - 50)
+            for s in seeds
+        ]
+        parts.append(v.paired_greater(gain, [0.0] * len(gain), f"g(K {k})"))
+    return _joined(parts)
+
+
+@rule("CEM-11")
+def cem_11(ev: Evidence) -> v.Verdict:
+    hand = hand_tuned_trial(ev)["distance_m"]
+    d = values(ev, "K10_n0_e2", best)
+    flags = [x > 0 and (hand <= 0 or hand <= x / 30) for x in d]
+    return v.majority(flags, f"K10_n0_e2: D ≥ 30 × D_hand ({hand:+.4f} m; D {_list(d)})")
+
+
+def _lateral_score(t: dict) -> float:
+    return t["distance_m"] - abs(t["lateral_m"])
+
+
+@rule("CEM-12")
+def cem_12(ev: Evidence) -> v.Verdict:
+    hand = _lateral_score(hand_tuned_trial(ev))
+    s = values(ev, "K10_n0.8_e2_lateral", lambda r: best_of(r.sample_scores())[0])
+    flags = [x > hand and (hand <= 0 or hand <= x / 30) for x in s]
+    return v.majority(flags, f"lateral penalty: S > S_hand ({hand:+.4f} m; S {_list(s)})")
+
+
+@rule("CEM-13a")
+def cem_13a(ev: Evidence) -> v.Verdict:
+    per_seed: dict[int, int] = {}
+    for setting in NO_NOISE + NOISE + ["K10_n0.8_e2_lateral", "K10_n0.2_e2", "K10_n1_e2"]:
+        for r in ev.cem(setting):
+            p = r.progress
+            standing = (p["falls"].to_numpy() <= r.population - r.elite)[:-1]
+            events = int(np.sum(standing & (p["mean_fell"].to_numpy()[1:] == 1)))
+            per_seed[r.seed] = per_seed.get(r.seed, 0) + events
+    flags = [n > 0 for n in per_seed.values()]
+    return v.majority(
+        flags,
+        f"rounds whose mean fell after an elite that walked, per seed {list(per_seed.values())}",
+    )
+
+
+@rule("CEM-14a")
+def cem_14a(ev: Evidence) -> v.Verdict:
+    flags = values(ev, "K10_n0.8_e2", lambda r: rounds_to(r, best(r) / 2) <= 10)
+    return v.majority(flags, "K10_n0.8_e2: half of D within 10 rounds")
+
+
+def _drift(run: CEMRun) -> float:
+    s = run.summary
+    return abs(s["best_lateral_m"]) / max(abs(s["best_distance_m"]), 1e-9)
+
+
+@rule("CEM-16a")
+def cem_16a(ev: Evidence) -> v.Verdict:
+    settings = [s for s in ev.computed("table6_3_settings") if "lateral" not in s]
+    ratios = [_drift(r) for s in settings for r in ev.cem(s)]
+    share = float(np.mean([x >= 0.1 for x in ratios]))
+    text = f"unpenalised best trials with |lateral| ≥ 0.1 × distance: {share:.2f} of {len(ratios)}"
+    if share >= 0.2:
+        return v.Verdict(v.HOLDS, text)
+    return v.Verdict(v.FAILS if share == 0 else v.INCONCLUSIVE, text, "little drift in our runs")
+
+
+@rule("CEM-16b")
+def cem_16b(ev: Evidence) -> v.Verdict:
+    return above(
+        ev, "K10_n0.8_e2", "K10_n0.8_e2_lateral", _drift, "|lateral|/distance, free − penalised"
+    )
+
+
+def _around(ev: Evidence) -> list[dict]:
+    """The learned K 10 / noise 0.8 / elite 2 gaits' perturbation trials, by seed."""
+    found = ev.computed("around_K10_n0.8_e2")
+    seeds = [str(r.seed) for r in ev.cem("K10_n0.8_e2")]
+    if not set(seeds) <= set(found):
+        raise MissingEvidence(
+            f"perturbation trials of K10_n0.8_e2 seeds {sorted(set(seeds) - set(found))} "
+            "(python -m baselines.experiments.study_evidence)"
+        )
+    return [found[s] for s in seeds]
+
+
+@rule("CEM-17")
+def cem_17(ev: Evidence) -> v.Verdict:
+    counts = [g["resets_broken"] for g in _around(ev)]
+    return v.majority(
+        [c > 0 for c in counts], f"one amplitude reset breaks the gait: {counts} of 11"
+    )
+
+
+def _k50_best(ev: Evidence) -> list[np.ndarray]:
+    return values(ev, "K50_n0.8_e2", lambda r: amplitudes(r.best_params))
+
+
+@rule("CEM-18a")
+def cem_18a(ev: Evidence) -> v.Verdict:
+    x = [a[1] for a in _k50_best(ev)]
+    return v.majority([abs(a - 11) / 11 < 0.25 for a in x], f"A_balancingAnk {_list(x, '.1f')}")
+
+
+@rule("CEM-18b")
+def cem_18b(ev: Evidence) -> v.Verdict:
+    x = [a[0] for a in _k50_best(ev)]
+    return v.majority([a < 11 for a in x], f"A_balancingHip {_list(x, '.1f')}")
+
+
+@rule("CEM-18c")
+def cem_18c(ev: Evidence) -> v.Verdict:
+    x = [abs(a[8]) for a in _k50_best(ev)]
+    return v.majority([a > 2 for a in x], f"|A_pelvisRot| {_list(x, '.1f')}")
+
+
+@rule("CEM-18d")
+def cem_18d(ev: Evidence) -> v.Verdict:
+    tops = ["+".join(t) for t in ev.computed("cpg")["k50_most_changed_left_joints"]]
+    flags = [t == "ankle pitch+hip pitch" for t in tops]
+    return v.majority(flags, f"largest two left-leg changes: {tops}")
+
+
+@rule("CEM-18e")
+def cem_18e(ev: Evidence) -> v.Verdict:
+    hand = hand_tuned(ev)
+    n = values(
+        ev, "K10_n0.8_e2", lambda r: int(np.sum(np.abs(amplitudes(r.best_params) - hand) > 5))
+    )
+    return v.majority([k >= 3 for k in n], f"amplitudes > 5 deg from hand-tuned: {n}")
+
+
+@rule("CEM-19a")
+def cem_19a(ev: Evidence) -> v.Verdict:
+    first = values(ev, "K10_n0_e4", first_fall)
+    return v.majority([f <= 5 for f in first], f"K10_n0_e4 first mean fall {first}")
+
+
+@rule("CEM-19b")
+def cem_19b(ev: Evidence) -> v.Verdict:
+    e3, e4 = paired(ev, "K10_n0_e3", "K10_n0_e4", first_fall)
+    return v.majority([a > b for a, b in zip(e3, e4)], f"first fall e3 {e3} vs e4 {e4}")
+
+
+@rule("CEM-20")
+def cem_20(ev: Evidence) -> v.Verdict:
+    parts = []
+    for s in ("K20_n0.8_e2", "K50_n0.8_e2", "K10_n0.8_e2_lateral"):
+        shares = values(ev, s, fall_share)
+        some = v.majority([0 < x <= 0.5 for x in shares], f"{s}: 0 < fall share ≤ 0.5")
+        most = sum(x > 0.5 for x in shares) >= 0.8 * len(shares)
+        parts.append(v.Verdict(v.FAILS, some.evidence, "most rounds fall") if most else some)
+    return _joined(parts)
+
+
+@rule("CEM-21")
+def cem_21(ev: Evidence) -> v.Verdict:
+    r08, r0 = paired(ev, "K10_n0.8_e1", "K10_n0_e1", best_round)
+    flags = [a > b and a > 2 for a, b in zip(r08, r0)]
+    return v.majority(flags, f"R elite 1: noise 0.8 {r08} vs none {r0}")
+
+
+@rule("CEM-22")
+def cem_22(ev: Evidence) -> v.Verdict:
+    return above(ev, "K10_n0_e2", "K10_n0.8_e1", best, "D(K10_n0_e2) − D(K10_n0.8_e1)")
+
+
+@rule("CEM-23")
+def cem_23(ev: Evidence) -> v.Verdict:
+    parts = [
+        above(ev, settings[2], settings[o], best, f"D({settings[2]}) − D({settings[o]})")
+        for settings in (NO_NOISE, NOISE)
+        for o in (0, 3)
+    ]
+    return _joined(parts)
+
+
+def _list(x, fmt: str = ".3f") -> str:
+    return "[" + ", ".join(format(float(a), fmt) for a in x) + "]"
+
+
+def _joined(parts: list[v.Verdict], label: str = "") -> v.Verdict:
+    """One verdict from the comparisons of one criterion (`verdicts.all_of`)."""
+    verdict = v.all_of(parts)
+    why = "; ".join(p.why for p in parts if p.why and p.verdict != v.HOLDS)
+    text = "; ".join(p.evidence for p in parts)
+    return v.Verdict(verdict, f"{label}: {text}" if label else text, why)

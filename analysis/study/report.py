@@ -1,0 +1,149 @@
+"""The study's report: each claim with its verdict and evidence, the numbers, the figure."""
+
+from __future__ import annotations
+
+import os
+from collections import Counter
+
+import numpy as np
+
+from analysis.study import chapter6
+from analysis.study.evidence import Evidence, MissingEvidence
+
+FIGURE = "cem_cost_per_round.png"
+CHAPTERS = {
+    "4.1": "Chapter 4.1: the crawler",
+    "4.2": "Chapter 4.2: the pole",
+    "5": "Chapter 5: the CPG and the Natural Actor-Critic",
+    "6": "Chapter 6: the Cross-Entropy Method",
+    "7": "Chapter 7: conclusions",
+    "A": "Appendix: value iteration step by step",
+}
+# Panels of the figure: the thesis' figure, its title, the settings it plots.
+PANELS = (
+    ("Fig. 6.2", "K 10, no noise", chapter6.NO_NOISE),
+    ("Fig. 6.3", "K 10, noise 0.8", chapter6.NOISE),
+    ("Fig. 6.4", "lateral penalty", ["K10_n0.8_e2_lateral"]),
+    ("Fig. 6.5-6.6", "K 10 / 20 / 50", ["K10_n0.8_e2", "K20_n0.8_e2", "K50_n0.8_e2"]),
+    ("Sec. 6.3", "noise 0.2 / 0.8 / 1.0", ["K10_n0.2_e2", "K10_n0.8_e2", "K10_n1_e2"]),
+    ("Sec. 6.3", "K 50 / 70 / 100", ["K50_n0.8_e2", "K70_n0.8_e2", "K100_n0.8_e2"]),
+)
+
+
+def _cell(text: str) -> str:
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def _claims_lines(claims: list[dict]) -> list[str]:
+    lines = []
+    for chapter, title in CHAPTERS.items():
+        rows = [c for c in claims if c["chapter"] == chapter]
+        if not rows:
+            continue
+        lines += [
+            f"## {title}",
+            "",
+            "| id | verdict | claim | evidence | why |",
+            "|---|---|---|---|---|",
+        ]
+        for c in rows:
+            name = f"↳ {c['id']}" if c["parent"] else f"**{c['id']}**"
+            cells = (name, c["verdict"], c["statement"], c["evidence"], c["why"])
+            lines.append("| " + " | ".join(_cell(x) for x in cells) + " |")
+        lines.append("")
+    return lines
+
+
+def _numbers_lines(table: list[dict]) -> list[str]:
+    lines = [
+        "## Every published number beside ours",
+        "",
+        "Results: ours from the same setting and measure (mean over seeds, bootstrap 95 % "
+        "interval). Inputs are settings and facts the benchmark takes as given; claims are "
+        "judged above.",
+        "",
+        "| id | quantity | setting | thesis | ours | 95 % CI | seeds | comparison |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for n in table:
+        if n["role"] != "result":
+            continue
+        published = f"{n['published']} {n['unit']}".strip()
+        cells = (
+            n["id"],
+            n["quantity"],
+            n["setting"],
+            published,
+            n.get("ours", ""),
+            n.get("ours_ci95", ""),
+            n.get("seeds", ""),
+            n.get("comparison", ""),
+        )
+        lines.append("| " + " | ".join(_cell(x) for x in cells) + " |")
+    roles = Counter(n["role"] for n in table)
+    lines += ["", f"Inputs: {roles['input']}; claims in words: {roles['claim']} (numbers.csv).", ""]
+    return lines
+
+
+def draw(ev: Evidence, out: str) -> str | None:
+    """The mean vector's cost per round, median over seeds (thin: each seed), per panel.
+
+    Returns:
+      The figure's path, or None without matplotlib.
+    """
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return None
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7), sharey=True)
+    for ax, (figure, title, settings) in zip(axes.ravel(), PANELS):
+        for i, setting in enumerate(settings):
+            try:
+                runs = ev.cem(setting)
+            except MissingEvidence:
+                continue
+            costs = np.array([r.mean_costs() for r in runs])
+            rounds = np.arange(1, costs.shape[1] + 1)
+            color = f"C{i}"
+            for c in costs:
+                ax.plot(rounds, c, color=color, lw=0.4, alpha=0.4)
+            ax.plot(rounds, np.median(costs, axis=0), color=color, lw=1.8, label=setting)
+        ax.set_title(f"{title} (thesis {figure})", fontsize=10)
+        ax.set_xlabel("round")
+        ax.set_ylim(-4.0, 10.5)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="upper right")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("mean vector's cost (−m; +10 a fall)")
+    fig.tight_layout()
+    path = os.path.join(out, FIGURE)
+    fig.savefig(path, dpi=100, metadata={"Software": None})
+    plt.close(fig)
+    return path
+
+
+def write(out: str, claims: list[dict], table: list[dict], ev: Evidence) -> str:
+    """Writes `report.md` (and the figure) into `out`; returns the report's path."""
+    whole = Counter(c["verdict"] for c in claims if not c["parent"])
+    figure = draw(ev, out)
+    lines = [
+        "# The study, claim by claim",
+        "",
+        "Made by `python -m analysis.study` from the shipped run files; do not edit "
+        "(docs/study.md#claim-by-claim says how each verdict is reached).",
+        "",
+        f"{sum(whole.values())} distinct claims: "
+        + ", ".join(f"{n} {k}" for k, n in sorted(whole.items()))
+        + ". A claim's parts (↳) are judged one by one; the whole is mixed where they differ.",
+        "",
+    ]
+    if figure:
+        lines += [f"![CEM cost per round]({FIGURE})", ""]
+    lines += _claims_lines(claims) + _numbers_lines(table)
+    path = os.path.join(out, "report.md")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines))
+    return path

@@ -1,0 +1,67 @@
+"""The study, claim by claim: the catalog's integrity, and the tracked verdicts, numbers
+and report equal a rebuild from the shipped run files."""
+
+import os
+
+import pytest
+
+from analysis import published
+from analysis.study import build, catalog, numbers
+from analysis.study.registry import RULES
+
+TRACKED = os.path.join("results", "study")
+
+
+@pytest.fixture(scope="module")
+def rows():
+    return catalog.load()
+
+
+def test_ids_are_distinct_and_parts_have_their_whole(rows):
+    ids = [r["id"] for r in rows]
+    assert len(ids) == len(set(ids))
+    wholes = {r["id"] for r in rows if not r["parent"]}
+    assert all(r["parent"] in wholes for r in rows if r["parent"])
+
+
+def test_every_published_claim_is_merged_into_exactly_one_catalog_row(rows):
+    merged = [i for r in rows for i in r["merged"].split()]
+    claims = [i for i, p in published.NUMBERS.items() if p["kind"] == "claim"]
+    assert sorted(merged) == sorted(set(merged)), "a row is merged twice"
+    assert set(claims) <= set(merged), set(claims) - set(merged)
+    assert not set(merged) & {r["id"] for r in rows}, "a merged id is still a catalog row"
+
+
+def test_every_number_a_row_cites_is_published(rows):
+    cited = {i for r in rows for i in r["numbers"].split()}
+    assert cited <= set(published.NUMBERS), cited - set(published.NUMBERS)
+
+
+def test_rules_judge_catalog_rows_that_are_testable(rows):
+    by_id = {r["id"]: r for r in rows}
+    assert set(RULES) <= set(by_id), set(RULES) - set(by_id)
+    assert all(by_id[i]["testable"] == "yes" for i in RULES)
+    wholes_with_parts = set(catalog.parts_of(rows))
+    assert not set(RULES) & wholes_with_parts, "a whole claim is judged by its parts"
+
+
+def test_an_untestable_claim_says_why(rows):
+    for r in rows:
+        if r["testable"] != "yes":
+            assert r["testable"].startswith("no: ") and len(r["testable"]) > 10, r["id"]
+
+
+def test_every_published_number_has_a_role():
+    roles = {n["id"]: n["role"] for n in numbers.table(build.Evidence(), catalog.load())}
+    assert set(roles) == set(published.NUMBERS)
+    assert set(roles.values()) <= {"input", "claim", "result"}
+
+
+def test_the_tracked_files_equal_a_rebuild(tmp_path):
+    """`python -m analysis.study` remade from the shipped runs gives the tracked files."""
+    build.build(str(tmp_path))
+    for name in ("claims.csv", "numbers.csv", "report.md"):
+        with open(os.path.join(TRACKED, name), encoding="utf-8") as f:
+            tracked = f.read()
+        rebuilt = (tmp_path / name).read_text(encoding="utf-8")
+        assert rebuilt == tracked, f"results/study/{name} differs from its rebuild"

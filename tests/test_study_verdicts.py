@@ -1,0 +1,121 @@
+"""The study's verdict rules: known answers, and criteria that can fail."""
+
+import json
+import os
+import shutil
+
+import pytest
+
+from analysis.study import chapter6
+from analysis.study import verdicts as v
+from analysis.study.evidence import Evidence, MissingEvidence
+
+
+def test_greater_holds_fails_and_is_inconclusive():
+    assert v.greater([2.0, 2.1, 2.2, 2.0, 2.1], [1.0, 1.1, 0.9, 1.0, 1.2], "x").verdict == v.HOLDS
+    assert v.greater([1.0, 1.1, 0.9, 1.0, 1.2], [2.0, 2.1, 2.2, 2.0, 2.1], "x").verdict == v.FAILS
+    mixed = v.greater([1.0, 3.0, 1.0, 3.0, 2.0], [2.0, 1.0, 3.0, 2.0, 2.0], "x")
+    assert mixed.verdict == v.INCONCLUSIVE and "contains 0" in mixed.why
+
+
+def test_not_greater_fails_only_when_clearly_better():
+    assert v.not_greater([2.0] * 5, [1.0, 1.1, 0.9, 1.0, 1.2], "x").verdict == v.FAILS
+    assert v.not_greater([1.0, 1.2, 0.8, 1.1, 0.9], [1.0] * 5, "x").verdict == v.HOLDS
+
+
+def test_similar_needs_a_narrow_interval():
+    a, b = [1.0, 1.01, 0.99, 1.0, 1.0], [1.0, 0.99, 1.01, 1.0, 1.0]
+    assert v.similar(a, b, "x", tolerance=0.1).verdict == v.HOLDS
+    assert v.similar([2.0] * 5, b, "x", tolerance=0.1).verdict == v.FAILS
+    assert v.similar([0.5, 1.5, 0.5, 1.5, 1.0], b, "x", 0.1).verdict == v.INCONCLUSIVE
+
+
+def test_majority_thresholds():
+    assert v.majority([True] * 4 + [False], "x").verdict == v.HOLDS
+    assert v.majority([True] + [False] * 4, "x").verdict == v.FAILS
+    assert v.majority([True] * 3 + [False] * 2, "x").verdict == v.INCONCLUSIVE
+
+
+def test_combine():
+    h, f = v.Verdict(v.HOLDS, ""), v.Verdict(v.FAILS, "", "why")
+    i, u = v.Verdict(v.INCONCLUSIVE, ""), v.untestable("no robot")
+    assert v.combine([h, h]) == v.HOLDS
+    assert v.combine([f, f, u]) == v.FAILS
+    assert v.combine([h, f]) == v.MIXED
+    assert v.combine([h, i]) == v.INCONCLUSIVE
+    assert v.combine([u]) == v.UNTESTABLE
+
+
+def test_unknown_verdict_refused():
+    with pytest.raises(ValueError, match="unknown verdict"):
+        v.Verdict("yes", "")
+
+
+def test_the_bootstrap_is_the_same_every_time():
+    a, b = [0.1, 0.4, 0.3, 0.2, 0.5], [0.2, 0.1, 0.3, 0.1, 0.2]
+    assert v.difference_interval(a, b) == v.difference_interval(a, b)
+
+
+def _copy_setting(src_root: str, dst_root: str, setting: str, scale: float) -> None:
+    """Copies a setting's runs, scaling their mean-vector distances by `scale`."""
+    src = os.path.join(src_root, "cem", "darwin_walk")
+    dst = os.path.join(dst_root, "cem", "darwin_walk")
+    os.makedirs(dst, exist_ok=True)
+    for name in sorted(os.listdir(src)):
+        if not name.startswith(setting + "_seed"):
+            continue
+        shutil.copytree(os.path.join(src, name), os.path.join(dst, name))
+        path = os.path.join(dst, name, "progress.csv")
+        lines = open(path, encoding="utf-8").read().splitlines()
+        header = lines[0].split(",")
+        col = header.index("mean_distance_m")
+        rows = []
+        for line in lines[1:]:
+            cells = line.split(",")
+            cells[col] = repr(float(cells[col]) * scale)
+            rows.append(",".join(cells))
+        with open(path, "w", encoding="utf-8") as f:
+            f.write("\n".join([lines[0], *rows]) + "\n")
+
+
+def _have(setting: str) -> bool:
+    try:
+        Evidence().cem(setting)
+    except MissingEvidence:
+        return False
+    return True
+
+
+@pytest.mark.skipif(
+    not (_have("K10_n0_e1") and _have("K10_n0.8_e1")), reason="the study's runs are not shipped"
+)
+def test_a_cem_claim_fails_when_the_runs_say_otherwise(tmp_path):
+    """CEM-3a (noise beats no noise at elite 1) holds on the shipped runs and fails on
+    copies whose noisy runs walked a tenth as far: the criterion can fail."""
+    real = Evidence()
+    assert chapter6.__dict__  # the rules are registered on import
+    from analysis.study.registry import RULES
+
+    assert RULES["CEM-3a"](real).verdict == v.HOLDS
+    _copy_setting(real.study, str(tmp_path), "K10_n0_e1", 1.0)
+    _copy_setting(real.study, str(tmp_path), "K10_n0.8_e1", -1.0)
+    forged = Evidence(study=str(tmp_path), protocol=str(tmp_path / "none"))
+    assert RULES["CEM-3a"](forged).verdict == v.FAILS
+
+
+def test_missing_runs_are_said(tmp_path):
+    with pytest.raises(MissingEvidence, match="0 of 5 seeds"):
+        Evidence(study=str(tmp_path), protocol=str(tmp_path)).cem("K10_n0_e1")
+
+
+def test_a_run_not_trained_under_version_1_is_refused(tmp_path):
+    src = os.path.join(Evidence().protocol, "cem", "darwin_walk", "K50_n0.8_e2_seed0")
+    dst = tmp_path / "cem" / "darwin_walk" / "K10_n0_e1_seed0"
+    shutil.copytree(src, dst)
+    config = json.loads((dst / "config.json").read_text())
+    config["settings"]["benchmark_version"] = 2
+    (dst / "config.json").write_text(json.dumps(config))
+    from analysis.study import evidence
+
+    with pytest.raises(ValueError, match="not trained under version 1"):
+        evidence.cem_runs(str(tmp_path), str(tmp_path / "none"))
