@@ -608,3 +608,147 @@ NUMBERS = {
     "CR-N25": _realtime_cycle("td_lambda"),
     "CR-N31": _realtime_cycle("stochastic0.2"),
 }
+
+
+# --- exploration on the crawler (Sec. 4.1.7, real-time learning) ---------------------------
+
+CONSTANT_EPSILONS = ("0.1", "0.3", "0.5", "0.9")
+TRANSITIONS = 80  # allowed moves on the 5 × 5 grid (4 corners × 2 + 12 edges × 3 + 9 × 4)
+
+
+def _col(ev: Evidence, config: str, column: str) -> np.ndarray:
+    return runs(ev, config)[column].to_numpy(dtype=np.float64)
+
+
+def _measured(ev: Evidence, config: str) -> np.ndarray:
+    return _col(ev, config, "transitions_measured") / TRANSITIONS
+
+
+@rule("CR-7b")
+def cr_7b(ev: Evidence) -> v.Verdict:
+    return v.paired_greater(
+        _measured(ev, "value_iteration"),
+        _measured(ev, "value_iteration_eps0.1"),
+        "share of transitions measured, schedule − constant 0.1",
+    )
+
+
+@rule("CR-8a")
+def cr_8a(ev: Evidence) -> v.Verdict:
+    return v.paired_greater(
+        _measured(ev, "value_iteration_eps0.9"),
+        _measured(ev, "value_iteration_eps0.1"),
+        "share of transitions measured, ε 0.9 − 0.1",
+    )
+
+
+@rule("CR-8b")
+def cr_8b(ev: Evidence) -> v.Verdict:
+    return v.paired_greater(
+        _col(ev, "value_iteration", "last_moves_m"),
+        _col(ev, "value_iteration_eps0.9", "last_moves_m"),
+        "last 100 learning moves, schedule − constant 0.9 (m)",
+    )
+
+
+@rule("CR-8c")
+def cr_8c(ev: Evidence) -> v.Verdict:
+    schedule = _col(ev, "value_iteration", "last_moves_m")
+    parts = [
+        v.paired_greater(
+            schedule,
+            _col(ev, f"value_iteration_eps{e}", "last_moves_m"),
+            f"last 100 moves, schedule − constant {e} (m)",
+        )
+        for e in CONSTANT_EPSILONS
+    ]
+    return v.Verdict(
+        v.all_of(parts),
+        "; ".join(p.evidence for p in parts),
+        "; ".join(p.why for p in parts if p.why),
+    )
+
+
+@rule("CR-9a")
+def cr_9a(ev: Evidence) -> v.Verdict:
+    return v.paired_greater(
+        _col(ev, "value_iteration", "displacement_m"),
+        _col(ev, "value_iteration_hold300", "displacement_m"),
+        "greedy displacement, ε 0.9 held 100 − 300 moves (m)",
+    )
+
+
+@rule("CR-9c")
+def cr_9c(ev: Evidence) -> v.Verdict:
+    long, short = (
+        _col(ev, "value_iteration_moves5000", "displacement_m"),
+        _col(ev, "value_iteration", "displacement_m"),
+    )
+    return v.paired_similar(
+        long, short, "greedy displacement, 5000 − 1000 moves (m)", 0.1 * abs(short.mean())
+    )
+
+
+@rule("CR-12")
+def cr_12(ev: Evidence) -> v.Verdict:
+    rho = _col(ev, "value_iteration", "tokic_rank_correlation")
+    mean, low, high = v.mean_interval(rho)
+    text = f"rank correlation of the learned table with Tokic's: {mean:.2f} [{low:.2f}, {high:.2f}]"
+    if high < 0.5:
+        return v.Verdict(v.HOLDS, text)
+    if low > 0.5:
+        return v.Verdict(v.FAILS, text, "the learned table ranks moves as Tokic's does")
+    return v.Verdict(v.INCONCLUSIVE, text, "the interval straddles 0.5")
+
+
+@rule("CR-13b")
+def cr_13b(ev: Evidence) -> v.Verdict:
+    area = {a: runs(ev, tuned(ev, a))["rms_area"].to_numpy(dtype=np.float64) for a in LEARNERS}
+    order = sorted(area, key=lambda a: area[a].mean())
+    third = area[order[2]].mean()
+    text = "RMS area by learner: " + ", ".join(f"{a} {area[a].mean():.3g}" for a in order)
+    best_two = set(order[:2]) == {"value_iteration", "q_learning"}
+    below = all(v.mean_interval(area[a])[2] < third for a in ("value_iteration", "q_learning"))
+    if best_two and below:
+        return v.Verdict(v.HOLDS, text)
+    if order.index("value_iteration") >= 3 or order.index("q_learning") >= 3:
+        return v.Verdict(v.FAILS, text, "value iteration or Q-learning converges among the worst")
+    return v.Verdict(v.INCONCLUSIVE, text, "the two are not clearly the best")
+
+
+@rule("CR-15b")
+def cr_15b(ev: Evidence) -> v.Verdict:
+    cycle = {a: per_cycle(runs(ev, tuned(ev, a))) for a in LEARNERS}
+    order = sorted(cycle, key=lambda a: -cycle[a].mean())
+    top, second = order[0], order[1]
+    if top == "td_lambda":
+        return v.greater(
+            cycle["td_lambda"], cycle[second], f"per-cycle displacement, TD(λ) − {second}"
+        )
+    verdict = v.greater(cycle["td_lambda"], cycle[top], f"per-cycle displacement, TD(λ) − {top}")
+    if verdict.verdict == v.FAILS:
+        return v.Verdict(v.FAILS, verdict.evidence, f"{top} takes larger steps in our runs")
+    return v.Verdict(v.INCONCLUSIVE, verdict.evidence, f"{top} has the larger mean")
+
+
+@rule("PB-16b")
+def pb_16b(ev: Evidence) -> v.Verdict:
+    configs = {"base": 0.0, "epsilon0.05": 0.05, "epsilon0.1": 0.1, "epsilon0.2": 0.2}
+    eps = np.concatenate([np.full(5, e) for e in configs.values()])
+    last = np.concatenate(
+        [pole(ev, c)["last_fall_step"].to_numpy(dtype=np.float64) for c in configs]
+    )
+    rng = np.random.default_rng(0)
+    rhos = []
+    for _ in range(2000):
+        i = rng.integers(0, eps.size, eps.size)
+        if np.ptp(eps[i]) and np.ptp(last[i]):
+            rhos.append(float(pd.Series(eps[i]).corr(pd.Series(last[i]), method="spearman")))
+    low, high = np.percentile(rhos, [2.5, 97.5])
+    rho = float(pd.Series(eps).corr(pd.Series(last), method="spearman"))
+    text = f"Spearman ρ(ε, last fall step) over 20 runs: {rho:.2f} [{low:.2f}, {high:.2f}]"
+    if low > 0:
+        return v.Verdict(v.HOLDS, text)
+    if high < 0:
+        return v.Verdict(v.FAILS, text, "more exploration balanced sooner in our runs")
+    return v.Verdict(v.INCONCLUSIVE, text, "the interval contains 0")
