@@ -12,6 +12,11 @@ Reads every `<DIR>/**/<method>/<task>/<run_name>/summary.json` (run files only) 
   evidence and whether it holds (`yes` / `no`), and `untested` for the rest. Claims
   already judged by an experiment script (`pole_claims.csv`, found anywhere under DIR)
   are carried over.
+* `darwin_leaderboard.csv` beside it: the DARwIn-OP board (docs/protocol.md#ranking) of the
+  runs it admits (docs/protocol.md#admission: what verify needs to score a run again, a
+  card made under the protocol's card settings that the run's trials produce, no copies),
+  and `darwin_not_admitted.csv`: every other DARwIn-OP run with a one-line reason; the
+  same pair `_v<n>` for each earlier benchmark version whose cards the runs keep.
 
 Missing or malformed run files are skipped and listed on stderr, never a crash.
 """
@@ -38,7 +43,7 @@ from absl import flags
 
 from analysis import published
 from cpg_suite import cli
-from cpg_suite.protocol import aggregate
+from cpg_suite.protocol import admission, aggregate
 from cpg_suite.protocol.stats import mean_std_ci95
 
 _SEED = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
@@ -414,6 +419,9 @@ def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
     the cards, version trained under) over its seeds. A configuration trained under an
     earlier version than its cards' is listed, not ranked (`_status`).
 
+    These are the rows of the runs given, whatever they hold: the board ranks only the
+    runs it admits (`darwin_board`, `admit`).
+
     The in-sample best stays a column; the study's number sits beside it only (the best
     trial of one Webots run in its own unit), never as a ratio or a verdict.
 
@@ -432,6 +440,81 @@ def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
             key = (run["task"], run["method"], run["config"], version_of_card, trained)
             groups[key].append({**run["summary"], "test": card})
     return _ranked([_darwin_row(key, summaries) for key, summaries in groups.items()])
+
+
+# The board's list of the runs it refuses (`darwin_board`), one row per run.
+NOT_ADMITTED_FIELDS = [
+    "benchmark_version",
+    "training_task",
+    "method",
+    "config",
+    "seed",
+    "run",
+    "reason",
+]
+PRESET_REFUSAL = "a score card alone (score.json): no run that verify can score again"
+
+
+def is_darwin_run(run: dict) -> bool:
+    """Whether a run found by `find_runs` belongs on the DARwIn-OP board: a walking run or
+    a preset's score card."""
+    return run["task"].startswith("darwin_walk") or run["method"] == PRESET_METHOD
+
+
+def admit(found: list[dict], version: int | None = None) -> tuple[list[dict], list[dict]]:
+    """The DARwIn-OP runs the board of `version` admits, and those it refuses, each with
+    its one-line reason (`cpg_suite.protocol.admission`: the files verify needs, a card
+    made under the protocol's card settings that its trial table produces, no copies).
+    Reads JSON and CSV files only: nothing from a run folder is unpickled or imported.
+
+    Args:
+      found: The runs (`find_runs`), in path order.
+      version: The board's benchmark version (None: `admission.BOARD_VERSION`).
+
+    Returns:
+      `(admitted, refused)`: the admitted runs (as in `found`) and one row per refused run
+      (`NOT_ADMITTED_FIELDS`), both in path order; runs of other tasks are in neither.
+    """
+    board = admission.BOARD_VERSION if version is None else version
+    darwin = [run for run in found if is_darwin_run(run)]
+    reasons = admission.refusals(
+        [run["dir"] for run in darwin if run["method"] != PRESET_METHOD], board
+    )
+    admitted, refused = [], []
+    for run in darwin:
+        reason = PRESET_REFUSAL if run["method"] == PRESET_METHOD else reasons.get(run["dir"])
+        if reason is None:
+            admitted.append(run)
+            continue
+        parts = os.path.normpath(run["dir"]).split(os.sep)
+        refused.append(
+            {
+                "benchmark_version": board,
+                "training_task": run["task"],
+                "method": run["method"],
+                "config": run["config"],
+                "seed": "" if run["seed"] is None else run["seed"],
+                "run": "/".join(parts[-3:] if run["method"] != PRESET_METHOD else parts[-1:]),
+                "reason": reason,
+            }
+        )
+    return admitted, refused
+
+
+def darwin_board(found: list[dict], version: int | None = None) -> tuple[list[dict], list[dict]]:
+    """The DARwIn-OP board of a benchmark version: the rows of the admitted runs
+    (`darwin_rows`) and the refused runs with their reasons (`admit`).
+
+    Args:
+      found: The runs (`find_runs`).
+      version: The board's benchmark version; None: the current one
+        (`admission.BOARD_VERSION`), its runs' cards as they stand.
+
+    Returns:
+      `(rows, not_admitted)`.
+    """
+    admitted, refused = admit(found, version)
+    return darwin_rows(admitted, version), refused
 
 
 def history_versions(found: list[dict]) -> list[int]:
@@ -688,8 +771,10 @@ class LeaderboardSettings:
 def write_tables(runs: str, out: str) -> str:
     """Writes the leaderboard, the claims and the DARwIn test-score table of a run tree.
 
-    Writes `out`, and `claims.csv` and `darwin_leaderboard.csv` in the same folder
-    (created if missing). Run files that cannot be read are skipped and listed on stderr.
+    Writes `out`, and `claims.csv`, `darwin_leaderboard.csv` and `darwin_not_admitted.csv`
+    (the runs the board refuses, with the reason) in the same folder (created if missing),
+    and the boards of earlier benchmark versions (`darwin_tables`). Run files that cannot be
+    read are skipped and listed on stderr.
 
     Args:
       runs: The root of the run directories.
@@ -710,19 +795,43 @@ def write_tables(runs: str, out: str) -> str:
     os.makedirs(out_dir, exist_ok=True)
     write_csv(out, rows, LEADERBOARD_FIELDS)
     write_csv(os.path.join(out_dir, "claims.csv"), claims, CLAIM_FIELDS)
-    darwin = darwin_rows(found)
-    write_csv(os.path.join(out_dir, "darwin_leaderboard.csv"), darwin, DARWIN_FIELDS)
-    for version in history_versions(found):  # cards kept under earlier benchmark versions
-        path = os.path.join(out_dir, f"darwin_leaderboard_v{version}.csv")
-        write_csv(path, darwin_rows(found, version), DARWIN_FIELDS)
+    boards = darwin_tables(found)
+    for name, table, fields in boards:
+        write_csv(os.path.join(out_dir, name), table, fields)
     for line in skipped:
         print(f"skipped: {line}", file=sys.stderr)
     judged = sum(c["holds"] != "untested" for c in claims)
+    darwin, refused = boards[0][1], boards[1][1]
     return (
         f"{len(found)} runs, {len(rows)} leaderboard rows -> {out}; {len(darwin)} DARwIn "
-        f"test-score rows -> darwin_leaderboard.csv; {len(claims)} claims "
+        f"test-score rows -> darwin_leaderboard.csv ({len(refused)} runs not admitted -> "
+        f"darwin_not_admitted.csv); {len(claims)} claims "
         f"({judged} judged) -> {os.path.join(out_dir, 'claims.csv')}"
     )
+
+
+def darwin_tables(
+    found: list[dict], versions: tuple[int | None, ...] | None = None
+) -> list[tuple[str, list[dict], list[str]]]:
+    """The DARwIn-OP boards' files: `darwin_leaderboard.csv` and `darwin_not_admitted.csv`
+    (the current version), then `darwin_leaderboard_v<n>.csv` and
+    `darwin_not_admitted_v<n>.csv` for each version whose cards runs keep as history.
+
+    Args:
+      found: The runs (`find_runs`).
+      versions: The boards (None for the current one); default: the current one and
+        every version of `history_versions`.
+
+    Returns:
+      `(file name, rows, fields)` per file, two per board, in that order.
+    """
+    tables = []
+    for version in (None, *history_versions(found)) if versions is None else versions:
+        suffix = "" if version is None else f"_v{version}"
+        rows, refused = darwin_board(found, version)
+        tables.append((f"darwin_leaderboard{suffix}.csv", rows, DARWIN_FIELDS))
+        tables.append((f"darwin_not_admitted{suffix}.csv", refused, NOT_ADMITTED_FIELDS))
+    return tables
 
 
 def define_flags() -> None:

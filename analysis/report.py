@@ -486,11 +486,14 @@ def _markdown_table(rows: list[dict], fields: list[str]) -> str:
     return "\n".join(lines)
 
 
-def _figures(found, darwin: list[dict], runs: str, out: str, with_gaits: bool) -> list[tuple]:
+def _figures(found, board: tuple, runs: str, out: str, with_gaits: bool) -> list[tuple]:
+    """The report's figures: `board` holds the runs and the DARwIn-OP rows the test-score
+    figures show (the board's), `found` every run the others read."""
+    board_runs, darwin = board
     figures = [
         ("Validation score vs simulation budget", score_vs_budget(found, out)),
         ("Test score per tier", tier_scores(darwin, out)),
-        ("Performance profiles per budget track", performance_profiles(found, out)),
+        ("Performance profiles per budget track", performance_profiles(board_runs, out)),
         ("CEM rounds (thesis Fig. 6.2-6.6)", cem_rounds(found, out)),
         ("Joint trajectories, hand-tuned vs best gait (Fig. 6.9)", joint_trajectories(found, out)),
         ("RMS error of real-time crawler learners (Fig. 4.6)", rms_error(found, out)),
@@ -513,7 +516,7 @@ def _shown_path(path: str) -> str:
     return os.path.basename(os.path.abspath(path)) if relative.startswith("..") else relative
 
 
-def _report_lines(runs, found, figures, tables, skipped) -> list[str]:
+def _report_lines(runs, found, figures, tables, skipped, refused=()) -> list[str]:
     rows, darwin, claims = tables
     lines = ["# cpg_suite report", "", f"Runs: `{_shown_path(runs)}` ({len(found)} runs).", ""]
     for title, path in figures:
@@ -522,8 +525,18 @@ def _report_lines(runs, found, figures, tables, skipped) -> list[str]:
     lines += [
         "## DARwIn-OP: test scores (held-out tiers)",
         "",
-        _markdown_table(darwin, leaderboard.DARWIN_FIELDS) if darwin else "(no scored runs)",
+        _markdown_table(darwin, leaderboard.DARWIN_FIELDS) if darwin else "(no admitted runs)",
         "",
+    ]
+    if refused:
+        lines += [
+            f"### Not admitted to the board ({len(refused)} runs; darwin_not_admitted.csv)",
+            "",
+            *([] if darwin else ["The test-score figures above show their cards.", ""]),
+            _markdown_table(list(refused), leaderboard.NOT_ADMITTED_FIELDS),
+            "",
+        ]
+    lines += [
         "## Leaderboard (in-sample and per-method metrics)",
         "",
         _markdown_table(rows, leaderboard.LEADERBOARD_FIELDS),
@@ -584,25 +597,23 @@ def write_report(runs: str, out: str, gaits: bool = False) -> str:
     leaderboard.check_runs_dir(runs)
     found, skipped = leaderboard.find_runs(runs)
     rows = leaderboard.leaderboard_rows(found)
-    darwin = leaderboard.darwin_rows(found)
+    admitted, refused = leaderboard.admit(found)
+    darwin = leaderboard.darwin_rows(admitted)
+    history = leaderboard.darwin_tables(found, tuple(leaderboard.history_versions(found)))
     claims = leaderboard.claim_rows(found, runs)
     _plt()
     os.makedirs(out, exist_ok=True)
-    figures = _figures(found, darwin, runs, out, gaits)
-    lines = _report_lines(runs, found, figures, (rows, darwin, claims), skipped)
+    # The test-score figures show the board's runs; with none admitted (a quick
+    # reproduction's cards: 2 seeds, short trials), every card, and the report says so.
+    board = (admitted, darwin) if darwin else (found, leaderboard.darwin_rows(found))
+    figures = _figures(found, board, runs, out, gaits)
+    lines = _report_lines(runs, found, figures, (rows, darwin, claims), skipped, refused)
     with open(os.path.join(out, "report.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines))
-    history = [
-        (
-            f"darwin_leaderboard_v{v}.csv",
-            leaderboard.darwin_rows(found, v),
-            leaderboard.DARWIN_FIELDS,
-        )
-        for v in leaderboard.history_versions(found)
-    ]
     for name, table, fields in (
         ("leaderboard.csv", rows, leaderboard.LEADERBOARD_FIELDS),
         ("darwin_leaderboard.csv", darwin, leaderboard.DARWIN_FIELDS),
+        ("darwin_not_admitted.csv", refused, leaderboard.NOT_ADMITTED_FIELDS),
         ("claims.csv", claims, leaderboard.CLAIM_FIELDS),
         *history,
     ):

@@ -19,8 +19,14 @@ METHODS = (
     "baselines.nac",
     "baselines.tabular",
 )
-# What `analysis` may import of the benchmark: command-line plumbing and statistics.
-ANALYSIS_MAY_IMPORT = ("cpg_suite.cli", "cpg_suite.protocol.stats", "cpg_suite.protocol.aggregate")
+# What `analysis` may import of the benchmark: command-line plumbing, statistics and the
+# board's admission rules (JSON and CSV only).
+ANALYSIS_MAY_IMPORT = (
+    "cpg_suite.cli",
+    "cpg_suite.protocol.stats",
+    "cpg_suite.protocol.aggregate",
+    "cpg_suite.protocol.admission",
+)
 SIMULATION = ("mujoco", "dm_control", "dm_env", "gymnasium", "torch", "ray")
 
 

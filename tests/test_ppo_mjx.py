@@ -286,7 +286,10 @@ def test_an_exported_policy_run_ships_and_verifies(tmp_path):
         "trials.csv",
         "versions.json",
     ]
-    assert verify.verify(str(shipped), log=lambda line: None) == 0
+    assert verify.verify_run(str(dest)) == []  # reproduced bit for bit
+    logged = []  # but 2 seeds of 10 steps on one tier: not a card the board admits
+    assert verify.verify(str(shipped), log=logged.append) == 1
+    assert logged[0].startswith("REFUSED") and "protocol's card settings" in logged[0]
     other = ppo_mjx.export_policy(_brax_params(env.observation_size, (8,), seed=3)[1], "joints")
     other.save(str(dest / "selected_policy.npz"))  # a different policy: verify must see it
     assert verify.verify_run(str(dest)) != []

@@ -14,6 +14,11 @@ weight).
 Open-loop gaits run on the batched `mujoco.rollout` evaluator; a policy (any callable from
 a dm_env observation to a 12-vector action in [−1, 1]) runs step by step. Both give the
 numbers stepping the environment gives (tested).
+
+A card made under other settings than the protocol's card settings (every tier, all 50
+test seeds, 1000-step trials, the version's supply limit) says so: `"protocol": false` and
+the list of differences (`"not_protocol"`, `card.deviations`) in its JSON, and
+`NOT A PROTOCOL CARD (...)` at the start of its first printed line (`format_card`).
 """
 
 from __future__ import annotations
@@ -32,19 +37,18 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 from absl import flags
-from scipy import stats
 
 import cpg_suite
-from cpg_suite import cli, cpg, darwin, electrical, evaluation, feedback, progress, protocol
+from cpg_suite import cli, cpg, electrical, evaluation, feedback, progress, protocol
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 from cpg_suite.evaluation import gait, ray_backend
 from cpg_suite.evaluation import quality as gait_quality
 from cpg_suite.evaluation.open_loop import BROWNOUT, FALL
 from cpg_suite.harness import runs
+from cpg_suite.protocol import card as card_stats
 
+summarize = card_stats.summarize  # a tier's statistics (`cpg_suite.protocol.card`)
 MAX_SUPPLY_WINDOW = 3600.0  # s: a window longer than any trial (inf: the whole trial)
-_BOOTSTRAP_RESAMPLES = 2000
-_BOOTSTRAP_SEED = 0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,70 +105,6 @@ class ScoreSettings:
         return {"supply": protocol.supply_limit(self.benchmark_version, self.supply_window)}
 
 
-def _interval(values: np.ndarray, statistic) -> list[float]:
-    if len(values) < 2 or np.all(values == values[0]):
-        value = float(statistic(values)) if len(values) else float("nan")
-        return [value, value]
-    result = stats.bootstrap(
-        (values,),
-        statistic,
-        confidence_level=0.95,
-        n_resamples=_BOOTSTRAP_RESAMPLES,
-        method="percentile",
-        random_state=np.random.default_rng(_BOOTSTRAP_SEED),
-    )
-    return [float(result.confidence_interval.low), float(result.confidence_interval.high)]
-
-
-def _iqm(values, axis=-1):
-    return stats.trim_mean(values, 0.25, axis=axis)
-
-
-def summarize(
-    distance: np.ndarray, fell: np.ndarray, quality: dict, cause: np.ndarray | None = None
-) -> dict:
-    """The statistics of one tier's (or the pooled) trials.
-
-    Args:
-      distance: (n,) forward distances, m.
-      fell: (n,) failure flags (a fall or, from version 2, a brown-out).
-      quality: (n,) arrays of `cpg_suite.evaluation.quality.FIELDS`.
-      cause: (n,) why each trial ended early (`open_loop.FALL`, `BROWNOUT`; 0: it did not).
-
-    Returns:
-      `success_weighted_distance_m`, `fall_rate` (the failures, whatever their cause),
-      `failures_by_cause` (the share of trials per cause), `speed_m_s` (the mean
-      success-weighted speed over the trial's duration, set by `_card`), `distance_m`
-      (mean, median, iqm) with 95 % intervals, `quality` medians, and `n`.
-    """
-    distance, fell = np.asarray(distance, float), np.asarray(fell, bool)
-    success = np.where(fell, 0.0, distance)
-    falls = int(fell.sum())
-    wilson = stats.binomtest(falls, len(fell)).proportion_ci(0.95, method="wilson")
-    return {
-        "n": len(distance),
-        "success_weighted_distance_m": {
-            "mean": float(success.mean()),
-            "ci95": _interval(success, np.mean),
-        },
-        "fall_rate": {"value": falls / len(fell), "ci95": [wilson.low, wilson.high]},
-        "failures_by_cause": {
-            c: float(np.mean(cause == i + 1)) if cause is not None else None
-            for i, c in enumerate(electrical.CAUSES)
-        },
-        "distance_m": {
-            "mean": float(distance.mean()),
-            "ci95": _interval(distance, np.mean),
-            "median": float(np.median(distance)),
-            "iqm": float(_iqm(distance)),
-            "iqm_ci95": _interval(distance, _iqm),
-        },
-        "quality": {
-            f: float(np.nanmedian(v)) if np.isfinite(v).any() else None for f, v in quality.items()
-        },
-    }
-
-
 def _card(per_tier: dict, settings: ScoreSettings, budget: dict) -> dict:
     keys = ("d", "f", "c")
     pooled = {k: np.concatenate([per_tier[t][k] for t in settings.tiers]) for k in keys}
@@ -172,15 +112,26 @@ def _card(per_tier: dict, settings: ScoreSettings, budget: dict) -> dict:
         f: np.concatenate([per_tier[t]["q"][f] for t in settings.tiers])
         for f in gait_quality.FIELDS
     }
-    duration = settings.steps * darwin.CONTROL_TIMESTEP  # s
 
     def row(d, f, q, c):
-        summary = summarize(d, f, q, c)
-        summary["speed_m_s"] = summary["success_weighted_distance_m"]["mean"] / duration
-        return summary
+        return card_stats.row(d, f, q, c, settings.steps)
 
+    deviations = card_stats.deviations(
+        settings.tiers,
+        settings.seeds,
+        settings.steps,
+        settings.benchmark_version,
+        settings.supply_window,
+    )
+    # A card made under other settings says so (a protocol card: no key, as before).
+    marking = (
+        {card_stats.PROTOCOL_KEY: False, card_stats.DEVIATIONS_KEY: deviations}
+        if deviations
+        else {}
+    )
     return {
         "benchmark_version": settings.benchmark_version,
+        **marking,
         # Where it ran is not what it measured: the card is the same on either backend.
         "settings": {
             k: v
@@ -214,13 +165,20 @@ def score_gait(amplitudes: np.ndarray, settings: ScoreSettings | None = None) ->
 
 
 # What a run stores of its card (summary.json's "test"): the card less its settings and
-# seeds, which the run's config holds.
-CARD_KEYS = ("benchmark_version", "tiers", "all", "scoring_sim_steps")
+# seeds, which the run's config holds; the marking of a non-protocol card where it has one.
+CARD_KEYS = (
+    "benchmark_version",
+    card_stats.PROTOCOL_KEY,
+    card_stats.DEVIATIONS_KEY,
+    "tiers",
+    "all",
+    "scoring_sim_steps",
+)
 
 
 def stored_card(card: dict) -> dict:
-    """The part of a card a run stores (`CARD_KEYS`)."""
-    return {k: card[k] for k in CARD_KEYS}
+    """The part of a card a run stores (`CARD_KEYS`; a protocol card has no marking)."""
+    return {k: card[k] for k in CARD_KEYS if k in card}
 
 
 # The columns of a card's per-trial table (`score_gait_trials`, `trials.csv` of a shipped run).
@@ -598,9 +556,12 @@ REAL_ROBOT_SPEED = 0.214  # m/s: a ROBOTIS OP2 walking 3 m in 14 s (docs/darwin_
 
 
 def format_card(card: dict) -> str:
-    """The card as a fixed-width table, one line per tier and one for all tiers."""
+    """The card as a fixed-width table, one line per tier and one for all tiers; the first
+    line says so when the card is not the protocol's (`card.card_deviations`)."""
+    deviations = card_stats.card_deviations(card)
+    marking = f"NOT A PROTOCOL CARD ({'; '.join(deviations)}); " if deviations else ""
     lines = [
-        f"benchmark version {card.get('benchmark_version', 1)}; "
+        f"{marking}benchmark version {card.get('benchmark_version', 1)}; "
         f"speed = success-weighted distance / trial time (the real robot: {REAL_ROBOT_SPEED} m/s)",
         f"{'tier':<24} {'success-weighted m [95% CI]':>30} {'m/s':>5} {'fail':>6} "
         f"{'brown':>6} {'median m':>9} {'CoT':>6} {'slip/m':>7} {'sat.':>6} "

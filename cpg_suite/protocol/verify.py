@@ -7,6 +7,11 @@ r"""Shipped leaderboard artifacts: make them from run directories, and re-score 
   python -m cpg_suite.protocol.verify --update_cards       # after the card gains a measure
   python -m cpg_suite.protocol.verify --rescore=ppo_mjx    # after a policy's arithmetic changed
 
+Every run folder is first checked as the leaderboard admits runs
+(`cpg_suite.protocol.admission`); a folder it would refuse — a file missing, a card made
+under other settings than the protocol's, a trial table that does not produce the card, a
+copy of another seed — is reported `REFUSED` with the reason and counts as a difference.
+
 A shipped run is a folder `<artifacts>/<method>/<task>/<run_name>/` holding what stands
 behind its leaderboard row (docs/protocol.md#shipped-artifacts):
 
@@ -45,7 +50,6 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
 import concurrent.futures
 import contextlib
-import csv
 import dataclasses
 import json
 import multiprocessing
@@ -58,7 +62,7 @@ from absl import flags
 
 from cpg_suite import cli, cpg, feedback, progress, protocol
 from cpg_suite.harness import exported, runs
-from cpg_suite.protocol import score
+from cpg_suite.protocol import admission, score
 
 ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
 # Copied as they are (config.json is relocated, summary.json gets the fresh card): a gait
@@ -68,7 +72,6 @@ COPIED_POLICY = ("selected_model.zip", "selected_vecnormalize.pkl", "progress.cs
 COPIED_EXPORTED = (exported.FILE, "progress.csv")
 _GAIT, _POLICY, _EXPORTED = COPIED[0], COPIED_POLICY[0], COPIED_EXPORTED[0]
 QUICK_SEEDS = 5  # test seeds per tier in a quick verification
-_CARD_KEYS = score.CARD_KEYS
 
 
 def shipped_runs(root: str) -> list[str]:
@@ -78,6 +81,13 @@ def shipped_runs(root: str) -> list[str]:
         if "summary.json" in names and {_GAIT, _POLICY, _EXPORTED} & set(names):
             found.append(dirpath)
     return sorted(found)
+
+
+def run_folders(root: str) -> list[str]:
+    """The folders under `root` that look like runs (a summary, a trial table, or a gait or
+    policy file), sorted: the shipped runs and those that lack a file (`admission`)."""
+    marks = {"summary.json", "trials.csv", _GAIT, _POLICY, _EXPORTED}
+    return sorted(dirpath for dirpath, _, names in os.walk(root) if marks & set(names))
 
 
 def card_settings(
@@ -201,21 +211,7 @@ def write_trials(path: str, trials: list[dict]) -> None:
     runs.write_rows_csv(path, rows)
 
 
-def read_trials(path: str) -> list[dict]:
-    """The trial table as `score.score_gait_trials` returns it."""
-    with open(path, newline="", encoding="utf-8") as f:
-        rows = list(csv.DictReader(f))
-    return [
-        {
-            "tier": r["tier"],
-            "seed": int(r["seed"]),
-            "distance_m": float(r["distance_m"]),
-            "fell": r["fell"] == "True",
-            "fall_step": int(r["fall_step"]),
-            "cause": r.get("cause") or ("fall" if r["fell"] == "True" else ""),
-        }
-        for r in rows
-    ]
+read_trials = admission.read_trials  # the trial table as `score.score_gait_trials` returns it
 
 
 def _relocated(config: dict) -> dict:
@@ -258,7 +254,7 @@ def ship(run_dir: str, dest: str, threads: int = 2) -> str:
     if "test" not in summary:
         raise ValueError(f"{run_dir} has no test score card")
     card, trials = rescore(run_dir, threads=threads)
-    fresh = _jsonable({k: card[k] for k in _CARD_KEYS})
+    fresh = _jsonable(score.stored_card(card))
     if not extends(fresh, summary["test"]):
         raise ValueError(f"{run_dir}: scored again, its card differs from the run's")
     config = runs.read_json(os.path.join(run_dir, "config.json"))
@@ -281,15 +277,42 @@ def _copied(run_dir: str) -> tuple[str, ...]:
     return COPIED_POLICY if os.path.exists(os.path.join(run_dir, _POLICY)) else COPIED
 
 
+def unshippable(run_dir: str) -> list[str]:
+    """What a finished run folder lacks of what `ship` copies (empty: nothing).
+
+    Args:
+      run_dir: A run directory.
+
+    Returns:
+      The missing file names; the gait or policy as one phrase when there is none.
+    """
+    missing = [n for n in ("summary.json", "config.json") if not _isfile(run_dir, n)]
+    if not admission.artifact_files(run_dir):
+        return [*missing, f"the gait or policy ({_GAIT}, {_EXPORTED} or {_POLICY})"]
+    return missing + [n for n in _copied(run_dir) if not _isfile(run_dir, n)]
+
+
+def _isfile(run_dir: str, name: str) -> bool:
+    return os.path.isfile(os.path.join(run_dir, name))
+
+
 def ship_all(root: str, artifacts: str, log: Callable[[str], None] = progress.write) -> int:
     """Ships every finished DARwIn-OP run under `root` into `artifacts` (same layout),
     except those shipped before.
+
+    A folder that lacks a file `ship` copies is named with what it lacks, one line each; a
+    shipped run the leaderboard would not admit (`admission.run_refusal`: a card under
+    other settings than the protocol's, say) is shipped and named with the reason.
 
     Returns:
       How many runs were shipped.
     """
     shipped = 0
-    for run_dir in shipped_runs(root):
+    for run_dir in run_folders(root):
+        missing = unshippable(run_dir)
+        if missing:
+            log(f"not shippable {run_dir}: missing {', '.join(missing)}")
+            continue
         summary = runs.read_json(os.path.join(run_dir, "summary.json"))
         if "test" not in summary:
             log(f"skipped {run_dir}: no test score card")
@@ -298,7 +321,8 @@ def ship_all(root: str, artifacts: str, log: Callable[[str], None] = progress.wr
         if os.path.exists(os.path.join(dest, "trials.csv")):
             continue  # shipped before (`verify` checks it)
         ship(run_dir, dest)
-        log(f"shipped {dest}")
+        reason = admission.run_refusal(dest)
+        log(f"shipped {dest}" + (f"; the board will not admit it: {reason}" if reason else ""))
         shipped += 1
     return shipped
 
@@ -323,7 +347,7 @@ def _store_card(run_dir: str, card: dict) -> None:
     """Writes a fresh card into a shipped run's summary and the versions it was scored with."""
     summary_path = os.path.join(run_dir, "summary.json")
     summary = runs.read_json(summary_path)
-    runs.write_json(summary_path, {**summary, "test": _jsonable({k: card[k] for k in _CARD_KEYS})})
+    runs.write_json(summary_path, {**summary, "test": _jsonable(score.stored_card(card))})
     versions_path = os.path.join(run_dir, "versions.json")
     versions = runs.read_json(versions_path)
     versions["scored_with"] = runs.environment_record()
@@ -368,7 +392,7 @@ def verify_run(run_dir: str, quick: bool = False, threads: int = 2) -> list[str]
         problems.append(f"{differ or 'the number of'} trials differ from trials.csv")
     if not quick:
         summary = runs.read_json(os.path.join(run_dir, "summary.json"))
-        if _jsonable({k: card[k] for k in _CARD_KEYS}) != summary["test"]:
+        if _jsonable(score.stored_card(card)) != summary["test"]:
             problems.append("the score card differs from summary.json")
     return problems
 
@@ -406,7 +430,7 @@ def upgrade_run(run_dir: str, version: int = protocol.BENCHMARK_VERSION, threads
         raise ValueError(f"{run_dir}: its trials under version {old} changed")
     write_trials(os.path.join(run_dir, history_trials_file(old)), trials)
     summary = runs.read_json(summary_path)
-    history = {**summary.get("history", {}), f"v{old}": _jsonable({k: card[k] for k in _CARD_KEYS})}
+    history = {**summary.get("history", {}), f"v{old}": _jsonable(score.stored_card(card))}
     runs.write_json(summary_path, {**summary, "history": history})
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     settings = dataclasses.replace(
@@ -456,17 +480,25 @@ def verify(
       jobs: Runs re-scored at once, each in its own process (1: in this one). The runs are
         independent: the outcome does not depend on it.
 
+    Every run folder is first checked as the leaderboard checks it (`admission.refusals`:
+    the files verify needs, a card made under the protocol's card settings that its
+    trials produce, no copies); a folder it refuses is logged `REFUSED` with the reason,
+    counts as differing, and is not scored again (nothing of it is loaded).
+
     Returns:
-      The number of runs that differ (0: every card and trial reproduced bit for bit).
+      The number of runs that differ or are refused (0: every card and trial reproduced
+      bit for bit).
 
     Raises:
-      ValueError: If `artifacts` holds no shipped run.
+      ValueError: If `artifacts` holds no run folder.
     """
-    shipped = shipped_runs(artifacts)
-    if not shipped:
+    folders = run_folders(artifacts)
+    if not folders:
         raise ValueError(f"no shipped runs under {artifacts}")
+    refused = admission.refusals(folders)
+    shipped = [run_dir for run_dir in folders if run_dir not in refused]
     chosen = _quick_sample(shipped) if quick else shipped
-    failed = 0
+    failed = len(refused)
     with contextlib.ExitStack() as stack:
         if jobs > 1:
             spawn = multiprocessing.get_context("spawn")  # no forked threads or torch state
@@ -477,13 +509,18 @@ def verify(
                 run_dir: pool.submit(verify_run, run_dir, quick, threads)
                 for run_dir in sorted(chosen, key=_expected_cost, reverse=True)
             }
-            outcomes = (futures[run_dir].result() for run_dir in chosen)
+            outcome = lambda run_dir: futures[run_dir].result()  # noqa: E731
         else:
-            outcomes = (verify_run(run_dir, quick, threads) for run_dir in chosen)
-        for run_dir, problems in zip(chosen, outcomes):
+            outcome = lambda run_dir: verify_run(run_dir, quick, threads)  # noqa: E731
+        for run_dir in sorted([*chosen, *refused]):
+            if run_dir in refused:
+                log(f"REFUSED {run_dir}; {refused[run_dir]}")
+                continue
+            problems = outcome(run_dir)
             failed += bool(problems)
             log(f"{'DIFF' if problems else 'ok  '} {run_dir}" + "".join(f"; {p}" for p in problems))
-    log(f"{len(chosen) - failed} of {len(chosen)} shipped runs reproduced bit for bit")
+    total = len(chosen) + len(refused)
+    log(f"{total - failed} of {total} shipped runs reproduced bit for bit")
     return failed
 
 
@@ -517,7 +554,15 @@ def main(argv: list[str]) -> None:
         cli.check(
             os.path.isdir(values.ship_from), f"--ship_from={values.ship_from} is not a directory"
         )
-        ship_all(values.ship_from, values.artifacts)
+        shipped = ship_all(values.ship_from, values.artifacts)
+        lacking = [(d, unshippable(d)) for d in run_folders(values.ship_from)]
+        lacking = [(d, missing) for d, missing in lacking if missing]
+        if not shipped and lacking and not run_folders(values.artifacts):
+            first, missing = lacking[0]
+            more = f" (and {len(lacking) - 1} more folders)" if len(lacking) > 1 else ""
+            raise cli.UsageError(
+                f"nothing to ship from {values.ship_from}: {first} lacks {', '.join(missing)}{more}"
+            )
     cli.check(os.path.isdir(values.artifacts), f"--artifacts={values.artifacts} is not a directory")
     if values.rescore is not None:
         chosen = os.path.join(values.artifacts, values.rescore)

@@ -1,0 +1,334 @@
+"""Which runs the leaderboard admits (docs/protocol.md#admission); no simulation here.
+
+A DARwIn-OP run is ranked or listed on the board of a benchmark version only if
+
+* its folder holds what `cpg_suite.protocol.verify` needs to score it again: `config.json`
+  (the card's settings), `summary.json` (the card), the trial table of the card
+  (`trials.csv`, or `trials_v<n>.csv` for a card kept as history), the gait or policy
+  (`selected_params.json`; `selected_policy.npz`; or `selected_model.zip` with
+  `selected_vecnormalize.pkl`) and `versions.json` (what it was made and scored with);
+* its card was made under the protocol's card settings (`card.deviations`): every tier in
+  order, all 50 test seeds, 1000-step trials, the supply limit of its version — as its
+  config says verify would score it, and as the card shows of itself;
+* its config's benchmark version is the one its first card was made under (a run keeps
+  the card of the version it trained under as history when re-scored under a later one);
+* its trial table holds the card's tiers × test seeds and produces the card: every
+  statistic but the gait-quality medians (which need the simulation) is made again from
+  the table with the card's own arithmetic (`card.row`) and must be equal, bit for bit;
+* it is no copy: no earlier run (in path order) of the same configuration has the same
+  trial table or the same gait or policy file, byte for byte.
+
+Everything else is refused with a one-line reason (`refusals`). Nothing here executes code
+from a run folder: JSON and CSV are parsed, the gait or policy files are only hashed.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import os
+import re
+from collections.abc import Iterable
+
+import numpy as np
+
+from cpg_suite import electrical, protocol
+from cpg_suite.protocol import card as card_stats
+
+BOARD_VERSION = protocol.BENCHMARK_VERSION  # the version the leaderboard ranks by default
+GAIT = "selected_params.json"
+EXPORTED = "selected_policy.npz"  # `cpg_suite.harness.exported.FILE`
+SB3_MODEL, SB3_NORMALIZER = "selected_model.zip", "selected_vecnormalize.pkl"
+# A run folder's name: `<config>_seed<S>` (the configuration's name less its seed).
+SEED_NAME = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
+
+
+def artifact_files(run_dir: str) -> tuple[str, ...]:
+    """The files verify scores a run from, in verify's order of precedence: an exported
+    policy, a Stable-Baselines3 policy (model and normalizer), a gait; () for none."""
+    if os.path.exists(os.path.join(run_dir, EXPORTED)):
+        return (EXPORTED,)
+    if os.path.exists(os.path.join(run_dir, SB3_MODEL)):
+        return (SB3_MODEL, SB3_NORMALIZER)
+    if os.path.exists(os.path.join(run_dir, GAIT)):
+        return (GAIT,)
+    return ()
+
+
+def trials_file(card_version: int, current_version: int) -> str:
+    """The trial table of a run's card under `card_version`: `trials.csv` for its current
+    card (of `current_version`), `trials_v<n>.csv` for one kept as history."""
+    return "trials.csv" if card_version == current_version else f"trials_v{card_version}.csv"
+
+
+def missing_files(run_dir: str, trials: str = "trials.csv") -> list[str]:
+    """What a run folder lacks of what verify needs to score it again (empty: nothing).
+
+    Args:
+      run_dir: The run folder.
+      trials: The name of the card's trial table.
+
+    Returns:
+      The missing names, in a fixed order; the gait or policy as one phrase.
+    """
+    missing = [
+        name
+        for name in ("config.json", "summary.json", trials, "versions.json")
+        if not os.path.isfile(os.path.join(run_dir, name))
+    ]
+    artifacts = artifact_files(run_dir)
+    if not artifacts:
+        missing.append(f"the gait or policy ({GAIT}, {EXPORTED} or {SB3_MODEL})")
+    missing += [a for a in artifacts if not os.path.isfile(os.path.join(run_dir, a))]
+    return missing
+
+
+def read_trials(path: str) -> list[dict]:
+    """A trial table (`score.TRIAL_FIELDS`) as `score.score_gait_trials` returns it.
+
+    Raises:
+      OSError: If it cannot be read.
+      KeyError, ValueError: On a missing column or a value of the wrong kind.
+    """
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    return [
+        {
+            "tier": r["tier"],
+            "seed": int(r["seed"]),
+            "distance_m": float(r["distance_m"]),
+            "fell": r["fell"] == "True",
+            "fall_step": int(r["fall_step"]),
+            "cause": r.get("cause") or ("fall" if r["fell"] == "True" else ""),
+        }
+        for r in rows
+    ]
+
+
+def _jsonable(value):
+    return json.loads(json.dumps(value))
+
+
+def _without_quality(row: dict) -> dict:
+    return {k: v for k, v in row.items() if k != "quality"}
+
+
+def _card_row(trials: list[dict], steps: int) -> dict:
+    distance = np.array([t["distance_m"] for t in trials], dtype=float)
+    fell = np.array([t["fell"] for t in trials], dtype=bool)
+    cause = np.array([electrical.CAUSES.index(t["cause"]) + 1 if t["cause"] else 0 for t in trials])
+    return card_stats.row(distance, fell, {}, cause, steps)
+
+
+def trials_refusal(card: dict, trials: list[dict], steps: int) -> str | None:
+    """Why a trial table does not stand behind a card (None: it produces it).
+
+    Args:
+      card: The stored card (`tiers`, `all`, `scoring_sim_steps`).
+      trials: Its trial table (`read_trials`).
+      steps: Control steps per trial (the run's `trial_steps`).
+
+    Returns:
+      A one-line reason, or None.
+    """
+    tiers = list(card["tiers"])
+    wanted = [(tier, seed) for tier in tiers for seed in protocol.TEST]
+    if [(t["tier"], t["seed"]) for t in trials] != wanted:
+        return (
+            f"its trial table ({len(trials)} trials) is not the card's {len(tiers)} tiers × "
+            f"{len(protocol.TEST)} test seeds in order"
+        )
+    for t in trials:
+        ended = t["fall_step"] > 0
+        if not 0 <= t["fall_step"] <= steps or ended != t["fell"]:
+            return f"its trial table's {t['tier']} seed {t['seed']} ends at step {t['fall_step']}"
+        if t["cause"] not in ("", *electrical.CAUSES) or bool(t["cause"]) != ended:
+            return f"its trial table's {t['tier']} seed {t['seed']} has cause {t['cause']!r}"
+    by_tier = {tier: [t for t in trials if t["tier"] == tier] for tier in tiers}
+    fresh = {tier: _card_row(rows, steps) for tier, rows in by_tier.items()}
+    fresh["all"] = _card_row([t for tier in tiers for t in by_tier[tier]], steps)
+    for name, row in fresh.items():
+        stored = card["all"] if name == "all" else card["tiers"][name]
+        made = _jsonable(_without_quality(row))
+        for key, value in made.items():
+            if stored.get(key) != value and key != "speed_m_s":
+                return f"its trial table does not produce the card ({name}: {key} differs)"
+        if stored.get("speed_m_s") != made["speed_m_s"]:
+            implied = card_stats.implied_steps(stored)
+            if implied != steps:
+                return (
+                    f"its card's {name} speed is that of {implied}-step trials, not "
+                    f"{steps} (config.json)"
+                )
+            return f"its trial table does not produce the card ({name}: speed_m_s differs)"
+    bound = len(trials) * steps * card_stats.PHYSICS_STEPS_PER_CONTROL_STEP
+    sim_steps = card.get("scoring_sim_steps")
+    if not isinstance(sim_steps, int) or not 0 < sim_steps <= bound:
+        return (
+            f"the card's {sim_steps} physics steps are not those of {len(trials)} trials "
+            f"of at most {steps} steps"
+        )
+    return None
+
+
+def card_under(summary: dict, version: int | None) -> dict | None:
+    """A run's card under a benchmark version: its test card if scored under it, else the
+    one kept as history (`verify.upgrade_run`); None: none. `version` None: its test card."""
+    test = summary.get("test")
+    if not isinstance(test, dict) or version is None:
+        return test if isinstance(test, dict) else None
+    if test.get("benchmark_version", 1) == version:
+        return test
+    kept = (summary.get("history") or {}).get(f"v{version}")
+    return kept if isinstance(kept, dict) else None
+
+
+def _read_json(path: str) -> dict:
+    with open(path, encoding="utf-8") as f:
+        value = json.load(f)
+    if not isinstance(value, dict):
+        raise ValueError(f"{os.path.basename(path)} is not a JSON object")
+    return value
+
+
+def run_refusal(run_dir: str, version: int | None = None) -> str | None:
+    """Why the board of `version` refuses one run folder (None: admitted, copies aside).
+
+    Args:
+      run_dir: A run folder `<method>/<task>/<run_name>`.
+      version: The board's benchmark version (None: the run's card as it stands).
+
+    Returns:
+      A one-line reason, or None.
+    """
+    missing = missing_files(run_dir)
+    if missing:
+        return "missing " + ", ".join(missing)
+    try:
+        return _refusal(run_dir, version)
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError) as e:
+        return f"unreadable run files ({type(e).__name__}: {e})"
+
+
+def _refusal(run_dir: str, version: int | None) -> str | None:
+    summary = _read_json(os.path.join(run_dir, "summary.json"))
+    settings = _read_json(os.path.join(run_dir, "config.json")).get("settings")
+    if not isinstance(settings, dict):
+        return "config.json holds no settings"
+    test = summary.get("test")
+    if not isinstance(test, dict):
+        return "summary.json holds no test card"
+    current = test.get("benchmark_version", 1)
+    card = card_under(summary, version)
+    if card is None:
+        return f"no card under benchmark version {version} (its card: version {current})"
+    card_version = card.get("benchmark_version", 1)
+    trials_name = trials_file(card_version, current)
+    if not os.path.isfile(os.path.join(run_dir, trials_name)):
+        return f"missing {trials_name}"
+    if not isinstance(settings.get("test_seeds"), int) or not isinstance(
+        settings.get("trial_steps"), int
+    ):
+        return "config.json has no test_seeds or trial_steps (the card's settings)"
+    steps = settings["trial_steps"]
+    deviations = card_stats.deviations(
+        tuple(settings.get("test_tiers", protocol.TIERS)),
+        settings["test_seeds"],
+        steps,
+        card_version,
+        settings.get("supply_window", electrical.SUPPLY_WINDOW),
+    ) or card_stats.card_deviations(card, infer_steps=False)
+    if deviations:
+        return "not under the protocol's card settings: " + "; ".join(deviations)
+    trained = settings.get("benchmark_version", 1)
+    if trained not in protocol.VERSIONS:
+        known = sorted(protocol.VERSIONS)
+        return f"config.json claims benchmark version {trained!r}, not one of {known}"
+    scored = {current} | {int(k.lstrip("v")) for k in summary.get("history") or {}}
+    if min(scored) != trained:
+        return (
+            f"config.json claims benchmark version {trained}, but the run's cards are of "
+            f"version {', '.join(map(str, sorted(scored)))}: its first card is made under "
+            "the version it trained under"
+        )
+    trials = read_trials(os.path.join(run_dir, trials_name))
+    reason = trials_refusal(card, trials, steps)
+    if reason:
+        return reason
+    match = SEED_NAME.match(os.path.basename(os.path.normpath(run_dir)))
+    if match and "seed" in settings and settings["seed"] != int(match["seed"]):
+        return f"config.json's seed {settings['seed']} is not the seed of its folder's name"
+    return None
+
+
+def _digest(run_dir: str, names: Iterable[str]) -> str:
+    digest = hashlib.sha256()
+    for name in names:
+        with open(os.path.join(run_dir, name), "rb") as f:
+            digest.update(f.read())
+    return digest.hexdigest()
+
+
+def run_identity(run_dir: str) -> tuple[str, str, str]:
+    """A run folder's method, training task and configuration (its name less the seed)."""
+    parts = os.path.normpath(os.path.abspath(run_dir)).split(os.sep)
+    match = SEED_NAME.match(parts[-1])
+    config = (match["config"] or "default") if match else parts[-1]
+    return parts[-3], parts[-2], config
+
+
+def trained_version(run_dir: str) -> int:
+    """The benchmark version a run trained under: its config's `benchmark_version` (1 for a
+    run made before the setting existed, or without a readable config)."""
+    try:
+        return int(
+            _read_json(os.path.join(run_dir, "config.json"))["settings"].get("benchmark_version", 1)
+        )
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return 1
+
+
+def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, str]:
+    """The runs the board of `version` refuses, each with its reason (`run_refusal`), and
+    the copies: a run whose trial table or gait or policy file is byte for byte that of an
+    earlier run (in the order given) of the same configuration (method, training task,
+    configuration, version trained under).
+
+    Args:
+      run_dirs: Run folders, in path order.
+      version: The board's benchmark version (None: each run's card as it stands).
+
+    Returns:
+      {run folder: reason} for the refused runs.
+    """
+    refused, seen = {}, {}
+    for run_dir in run_dirs:
+        reason = run_refusal(run_dir, version)
+        if reason:
+            refused[run_dir] = reason
+            continue
+        summary = _read_json(os.path.join(run_dir, "summary.json"))
+        card = card_under(summary, version)
+        current = summary["test"].get("benchmark_version", 1)
+        trials_name = trials_file(card.get("benchmark_version", 1), current)
+        key = (*run_identity(run_dir), trained_version(run_dir))
+        prints = {
+            trials_name: _digest(run_dir, [trials_name]),
+            "gait or policy": _digest(run_dir, artifact_files(run_dir)),
+        }
+        for what, value in prints.items():
+            first = seen.get((key, what, value))
+            if first is not None:
+                refused[run_dir] = (
+                    f"a copy of {first}: the same {what}, byte for byte (one run, not another seed)"
+                )
+                break
+        else:
+            for what, value in prints.items():
+                seen[(key, what, value)] = os.path.join(*_tail(run_dir))
+    return refused
+
+
+def _tail(run_dir: str) -> list[str]:
+    return os.path.normpath(os.path.abspath(run_dir)).split(os.sep)[-3:]

@@ -1,0 +1,345 @@
+"""The leaderboard admits a run only with what verify needs and a protocol card its trials
+produce; forged runs, built by hand from a shipped one, are refused by the board and by
+verify, each with its reason (docs/protocol.md#admission)."""
+
+import csv
+import json
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from analysis import leaderboard
+from cpg_suite import darwin, protocol
+from cpg_suite.protocol import admission, score, verify
+from cpg_suite.protocol import card as card_stats
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RUNS = os.path.join(ROOT, "results", "protocol", "runs")
+GAIT_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed0")  # the cheapest
+POLICY_RUN = os.path.join(RUNS, "ppo", "darwin_walk", "cpg_seed0")  # an SB3 policy
+
+
+def _copy(runs, name, source=GAIT_RUN, method="cem"):
+    dest = runs / method / "darwin_walk" / name
+    shutil.copytree(source, dest)
+    return dest
+
+
+def _edit_json(path, change):
+    data = json.loads(path.read_text())
+    change(data)
+    path.write_text(json.dumps(data, indent=2))
+
+
+def _trials(run):
+    with open(run / "trials.csv", newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+def _write_trials(run, rows):
+    with open(run / "trials.csv", "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def _scored_as(
+    run, seeds=50, steps=1000, tiers=protocol.TIERS, config_seeds=None, config_steps=None
+):
+    """Rewrites a copied run as if its card had been made under other settings, every file
+    consistent with the others (the card's statistics made from the trials as a card makes
+    them): what a run scored with `--test_seeds`, `--trial_steps` or `--test_tiers` holds.
+    `config_seeds` and `config_steps` make its config claim other settings."""
+    rows = [r for r in _trials(run) if r["tier"] in tiers]
+    rows = [r for r in rows if int(r["seed"]) < protocol.TEST.start + seeds]
+    for r in rows:  # a trial that failed after the last step did not fail
+        if int(r["fall_step"]) > steps:
+            r.update(fell="False", fall_step="0", cause="")
+    _write_trials(run, rows)
+    summary = json.loads((run / "summary.json").read_text())
+    old = summary["test"]
+
+    def row(part):
+        made = card_stats.row(
+            np.array([float(r["distance_m"]) for r in part]),
+            np.array([r["fell"] == "True" for r in part]),
+            {},
+            np.array(
+                [1 + ("fall", "brownout").index(r["cause"]) if r["cause"] else 0 for r in part]
+            ),
+            steps,
+        )
+        return {**made, "quality": old["all"]["quality"]}
+
+    card = {
+        "benchmark_version": old["benchmark_version"],
+        "tiers": {t: row([r for r in rows if r["tier"] == t]) for t in tiers},
+        "all": row(rows),
+        "scoring_sim_steps": len(rows) * steps * 8,
+    }
+    (run / "summary.json").write_text(json.dumps({**summary, "test": card}, indent=2))
+
+    def config(c):
+        c["settings"]["test_seeds"] = seeds if config_seeds is None else config_seeds
+        c["settings"]["trial_steps"] = steps if config_steps is None else config_steps
+        c["settings"]["test_tiers"] = list(tiers)
+
+    _edit_json(run / "config.json", config)
+
+
+# name -> (how the copied run is forged, the start of the reason it is refused with)
+FORGERIES = {
+    "summary_alone": (
+        lambda run: [p.unlink() for p in run.iterdir() if p.name != "summary.json"],
+        "missing config.json, trials.csv, versions.json, the gait or policy",
+    ),
+    "no_versions": (lambda run: (run / "versions.json").unlink(), "missing versions.json"),
+    "two_seeds": (
+        lambda run: _scored_as(run, seeds=2),
+        "not under the protocol's card settings: 2 of the 50 test seeds",
+    ),
+    "two_seeds_config_says_50": (
+        lambda run: _scored_as(run, seeds=2, config_seeds=50),
+        "not under the protocol's card settings: 2 of the 50 test seeds",
+    ),
+    "steps200": (
+        lambda run: _scored_as(run, steps=200),
+        "not under the protocol's card settings: 200-step trials",
+    ),
+    "steps2000": (
+        lambda run: _scored_as(run, steps=2000),
+        "not under the protocol's card settings: 2000-step trials",
+    ),
+    "steps200_config_says_1000": (
+        lambda run: _scored_as(run, steps=200, config_steps=1000),
+        "its card's darwin_walk speed is that of 200-step trials, not 1000",
+    ),
+    "one_tier": (
+        lambda run: _scored_as(run, tiers=("darwin_walk",)),
+        "not under the protocol's card settings: tiers left out: darwin_walk_randomized",
+    ),
+    "card_edited": (
+        lambda run: _edit_json(
+            run / "summary.json",
+            lambda s: s["test"]["all"]["success_weighted_distance_m"].update(mean=2.5),
+        ),
+        "its trial table does not produce the card (all: success_weighted_distance_m",
+    ),
+    "trial_edited": (
+        lambda run: _write_trials(
+            run, [{**r, "distance_m": "4.0"} if i == 3 else r for i, r in enumerate(_trials(run))]
+        ),
+        "its trial table does not produce the card (darwin_walk: success_weighted_distance_m",
+    ),
+    "trials_short": (
+        lambda run: _write_trials(run, _trials(run)[:-1]),
+        "its trial table (199 trials) is not the card's 4 tiers × 50 test seeds",
+    ),
+    "config_claims_v1": (
+        lambda run: _edit_json(
+            run / "config.json", lambda c: c["settings"].pop("benchmark_version")
+        ),
+        "config.json claims benchmark version 1, but the run's cards are of version 2",
+    ),
+    "config_claims_v3": (
+        lambda run: _edit_json(
+            run / "config.json", lambda c: c["settings"].update(benchmark_version=3)
+        ),
+        "config.json claims benchmark version 3, not one of [1, 2]",
+    ),
+    "card_claims_v1": (
+        lambda run: _edit_json(
+            run / "summary.json", lambda s: s["test"].update(benchmark_version=1)
+        ),
+        "no card under benchmark version 2 (its card: version 1)",
+    ),
+}
+
+# Verify checks each card as it stands, not under a board's version.
+AS_VERIFY_SEES_IT = {
+    "card_claims_v1": "config.json claims benchmark version 2, but the run's cards are of version 1"
+}
+
+
+@pytest.fixture(scope="module")
+def forged(tmp_path_factory):
+    """A run tree: a genuine copy of a shipped gait run, each forgery of `FORGERIES` (its
+    own configuration), and five "seeds" that are one run copied (config seeds edited)."""
+    runs = tmp_path_factory.mktemp("forged") / "runs"
+    _copy(runs, "genuine_seed0")
+    for name, (forge, _) in FORGERIES.items():
+        forge(_copy(runs, f"{name}_seed0"))
+    for seed in range(5):
+        copy = _copy(runs, f"copied_seed{seed}")
+        _edit_json(copy / "config.json", lambda c, s=seed: c["settings"].update(seed=s))
+    _copy(runs, "wrong_seed_seed1")  # a copy not even renamed inside
+    return runs
+
+
+def _not_admitted(out):
+    with open(out / "darwin_not_admitted.csv", newline="", encoding="utf-8") as f:
+        return {r["run"].split("/")[-1]: r for r in csv.DictReader(f)}
+
+
+def test_the_board_refuses_each_forgery_with_its_reason(forged, tmp_path):
+    out = tmp_path / "board"
+    line = leaderboard.write_tables(str(forged), str(out / "leaderboard.csv"))
+    refused = _not_admitted(out)
+    assert f"{len(refused)} runs not admitted" in line
+    for name, (_, reason) in FORGERIES.items():
+        assert refused[f"{name}_seed0"]["reason"].startswith(reason), name
+        assert refused[f"{name}_seed0"]["benchmark_version"] == "2"
+    for seed in range(1, 5):
+        reason = refused[f"copied_seed{seed}"]["reason"]
+        assert reason.startswith("a copy of cem/darwin_walk/copied_seed0: the same trials.csv")
+    assert refused["wrong_seed_seed1"]["reason"].startswith("config.json's seed 0 is not")
+    assert set(refused) == {f"{n}_seed0" for n in FORGERIES} | {
+        *(f"copied_seed{s}" for s in range(1, 5)),
+        "wrong_seed_seed1",
+    }
+    with open(out / "darwin_leaderboard.csv", newline="", encoding="utf-8") as f:
+        board = list(csv.DictReader(f))
+    assert sorted((r["config"], r["n_seeds"], r["rank"]) for r in board) == [
+        ("copied", "1", ""),  # one run: provisional, never ranked
+        ("genuine", "1", ""),
+    ]
+
+
+def test_verify_refuses_each_forgery_without_scoring_it(forged):
+    logged = []
+    failed = verify.verify(str(forged), quick=True, log=logged.append)
+    refused = {
+        line.split(";")[0].split("/")[-1]: line.split("; ", 1)[1]
+        for line in logged
+        if line.startswith("REFUSED")
+    }
+    for name, (_, reason) in FORGERIES.items():
+        reason = AS_VERIFY_SEES_IT.get(name, reason)
+        assert refused[f"{name}_seed0"].startswith(reason), name
+    assert all(refused[f"copied_seed{s}"].startswith("a copy of") for s in range(1, 5))
+    assert failed == len(refused) == len(FORGERIES) + 5
+    reproduced = [line for line in logged if line.startswith("ok")]
+    assert [line.split("/")[-1] for line in reproduced] == ["copied_seed0", "genuine_seed0"]
+    assert logged[-1] == f"2 of {2 + failed} shipped runs reproduced bit for bit"
+
+
+def test_a_changed_gait_passes_the_board_but_not_verify(tmp_path):
+    """The board reads files only: a gait swapped under its card is verify's to find."""
+    runs = tmp_path / "runs"
+    run = _copy(runs, "swapped_seed0")
+    params = json.loads((run / "selected_params.json").read_text())
+    params["amplitudes"]["knee"] += 1.0
+    (run / "selected_params.json").write_text(json.dumps(params))
+    assert admission.refusals([str(run)]) == {}
+    logged = []
+    assert verify.verify(str(runs), quick=True, log=logged.append) == 1
+    assert logged[0].startswith("DIFF") and "trials differ from trials.csv" in logged[0]
+
+
+def test_every_shipped_run_is_admitted():
+    found, skipped = leaderboard.find_runs(RUNS)
+    assert not skipped
+    admitted, refused = leaderboard.admit(found)
+    assert refused == [] and len(admitted) == len(found) == 98
+    # The version-1 board: every run kept its version-1 card, or was trained under 2.
+    admitted, refused = leaderboard.admit(found, 1)
+    assert {r["reason"] for r in refused} == {
+        "no card under benchmark version 1 (its card: version 2)"
+    }
+    assert all(admission.trained_version(run["dir"]) == 1 for run in admitted)
+
+
+def test_the_board_executes_nothing_from_a_run_folder(tmp_path):
+    """A policy run's pickle that would write a file when unpickled: the board reads the
+    run and the file is never written."""
+    runs = tmp_path / "runs"
+    run = _copy(runs, "cpg_seed0", source=POLICY_RUN, method="ppo")
+    marker = tmp_path / "executed"
+
+    class Payload:
+        def __reduce__(self):
+            return (open, (str(marker), "w"))
+
+    (run / "selected_vecnormalize.pkl").write_bytes(pickle.dumps(Payload()))
+    leaderboard.write_tables(str(runs), str(tmp_path / "board" / "leaderboard.csv"))
+    assert not marker.exists()
+    assert _not_admitted(tmp_path / "board") == {}  # its files are all there
+
+
+def test_a_score_card_alone_is_listed_not_ranked(tmp_path):
+    preset = tmp_path / "runs" / "hand_tuned"
+    preset.mkdir(parents=True)
+    summary = json.loads(open(os.path.join(GAIT_RUN, "summary.json")).read())
+    (preset / "score.json").write_text(json.dumps(summary["test"]))
+    found, _ = leaderboard.find_runs(str(tmp_path / "runs"))
+    rows, refused = leaderboard.darwin_board(found)
+    assert rows == [] and [r["reason"] for r in refused] == [leaderboard.PRESET_REFUSAL]
+
+
+def test_a_card_says_when_it_is_not_the_protocols():
+    settings = score.ScoreSettings(tiers=("darwin_walk",), seeds=2, steps=30)
+    card = score.score_gait(np.zeros(11), settings)
+    deviations = [
+        "tiers left out: darwin_walk_randomized, darwin_walk_push, darwin_walk_rough",
+        "2 of the 50 test seeds",
+        "30-step trials (the protocol's: 1000)",
+    ]
+    assert card["protocol"] is False and card["not_protocol"] == deviations
+    assert score.stored_card(card)["not_protocol"] == deviations
+    first = score.format_card(card).splitlines()[0]
+    assert first.startswith("NOT A PROTOCOL CARD (tiers left out: darwin_walk_randomized")
+    assert "2 of the 50 test seeds; 30-step trials" in first
+    stored = {
+        k: v for k, v in score.stored_card(card).items() if k not in ("protocol", "not_protocol")
+    }
+    assert card_stats.card_deviations(stored) == deviations  # what the card shows of itself
+
+
+def test_a_protocol_card_is_unmarked():
+    assert card_stats.deviations(protocol.TIERS, 50, 1000, 2) == []
+    assert card_stats.deviations(protocol.TIERS, 50, 1000, 2, 0.25) == [
+        "supply window 0.25 s (version 2's: 1 s)"
+    ]
+    assert card_stats.deviations(protocol.TIERS, 50, 1000, 1, 0.25) == []  # no limit in v1
+    card = json.loads(open(os.path.join(GAIT_RUN, "summary.json")).read())["test"]
+    assert "protocol" not in card and card_stats.is_protocol(card)
+    assert score.format_card(card).startswith("benchmark version 2; speed = ")
+    assert score.stored_card(card) == card
+
+
+def test_the_cards_time_constants_are_the_models():
+    import cpg_suite
+
+    assert card_stats.CONTROL_TIMESTEP == darwin.CONTROL_TIMESTEP
+    env = cpg_suite.load("darwin_walk")
+    n_sub = env.control_timestep() / env.physics.model.opt.timestep
+    assert round(n_sub) == card_stats.PHYSICS_STEPS_PER_CONTROL_STEP
+
+
+def test_ship_from_names_what_a_folder_lacks(tmp_path):
+    half = tmp_path / "half" / "mine" / "darwin_walk" / "a_seed0"
+    half.mkdir(parents=True)
+    shutil.copy(os.path.join(GAIT_RUN, "summary.json"), half)
+    (tmp_path / "shipped").mkdir()
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cpg_suite.protocol.verify",
+            f"--ship_from={tmp_path / 'half'}",
+            f"--artifacts={tmp_path / 'shipped'}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    lacks = "config.json, the gait or policy (selected_params.json, selected_policy.npz or "
+    assert out.returncode == 2
+    (line,) = out.stderr.splitlines()
+    assert line.startswith(f"error: nothing to ship from {tmp_path / 'half'}: {half} lacks {lacks}")
+    assert out.stdout.startswith(f"not shippable {half}: missing {lacks}")
