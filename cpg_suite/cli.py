@@ -154,7 +154,38 @@ def fail(message: str) -> None:
     raise SystemExit(2)
 
 
+HELP = ("--help", "-h", "-?", "--helpshort")
+_PROJECT = tuple(
+    os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), package) + os.sep
+    for package in ("cpg_suite", "baselines", "analysis", "benchmarks")
+)
+
+
+def _usage(doc: str | None) -> str:
+    """The program's docstring up to its first paragraph after the usage lines."""
+    paragraphs = (doc or "").strip().split("\n\n")
+    return "\n\n".join(paragraphs[:2]).strip()
+
+
+def help_text(doc: str | None = None) -> str:
+    """One screen of help: the program's usage, then every flag the project defines for
+    it (absl's own are under --helpfull), one line each with its default."""
+    lines = [_usage(doc), "", "flags (defaults in brackets; --helpfull lists absl's too):"]
+    for module, defined in sorted(flags.FLAGS.flags_by_module_dict().items()):
+        dotted = module.split(".")[0] in ("cpg_suite", "baselines", "analysis", "benchmarks")
+        if not (dotted or os.path.abspath(module).startswith(_PROJECT)):
+            continue
+        for flag in sorted(defined, key=lambda f: f.name):
+            default = "" if flag.default is None else f" [{flag.default_as_str.strip(chr(39))}]"
+            text = " ".join((flag.help or "").split())
+            lines.append(f"  --{flag.name}{default}: {text}")
+    return "\n".join(lines) + "\n"
+
+
 def _parse_flags(argv: list[str]) -> list[str]:
+    if any(arg in HELP for arg in argv[1:]):
+        sys.stdout.write(help_text(getattr(sys.modules.get("__main__"), "__doc__", None)))
+        raise SystemExit(0)
     try:
         return flags.FLAGS(argv)
     except flags.Error as e:
