@@ -65,3 +65,15 @@ def test_the_tracked_files_equal_a_rebuild(tmp_path):
             tracked = f.read()
         rebuilt = (tmp_path / name).read_text(encoding="utf-8")
         assert rebuilt == tracked, f"results/study/{name} differs from its rebuild"
+
+
+def test_every_reading_explains_a_claim_that_did_not_hold():
+    """A reading of why a claim failed is kept only while the claim fails (or is mixed)."""
+    import csv
+
+    from analysis.study.readings import READINGS
+
+    with open(os.path.join(TRACKED, "claims.csv"), encoding="utf-8") as f:
+        verdicts = {r["id"]: r["verdict"] for r in csv.DictReader(f)}
+    stale = {i: verdicts.get(i) for i in READINGS if verdicts.get(i) not in ("fails", "mixed")}
+    assert not stale, f"readings of claims that no longer fail: {stale}"

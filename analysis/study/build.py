@@ -27,6 +27,7 @@ from collections import Counter
 from analysis.study import catalog, chapter4, chapter5, chapter6, numbers  # noqa: F401
 from analysis.study import verdicts as v
 from analysis.study.evidence import Evidence, MissingEvidence
+from analysis.study.readings import READINGS
 from analysis.study.registry import RULES
 
 OUT = os.path.join("results", "study")
@@ -73,9 +74,12 @@ def _judge_one(row: dict, ev: Evidence) -> v.Verdict:
     if rule is None:
         return _Untested("", "no rule yet")
     try:
-        return rule(ev)
+        verdict = rule(ev)
     except MissingEvidence as e:
         return v.Verdict(v.INCONCLUSIVE, "", f"runs missing: {e}")
+    if verdict.verdict in (v.FAILS, v.MIXED) and row["id"] in READINGS:
+        return v.Verdict(verdict.verdict, verdict.evidence, READINGS[row["id"]])
+    return verdict
 
 
 @dataclasses.dataclass(frozen=True)

@@ -752,3 +752,28 @@ def pb_16b(ev: Evidence) -> v.Verdict:
     if high < 0:
         return v.Verdict(v.FAILS, text, "more exploration balanced sooner in our runs")
     return v.Verdict(v.INCONCLUSIVE, text, "the interval contains 0")
+
+
+def _tokic_on_crawler(ev: Evidence) -> tuple[np.ndarray, int]:
+    found = ev.computed("tokic_on_crawler")
+    return np.array(found["displacement_m"]), found["cycle_length"]
+
+
+@rule("CR-11c")
+def cr_11c(ev: Evidence) -> v.Verdict:
+    tokic_policy, _ = _tokic_on_crawler(ev)
+    return v.paired_greater(
+        _col(ev, "value_iteration", "displacement_m"),
+        tokic_policy,
+        "100 greedy moves, real-time VI − the Tokic table's policy on our crawler (m)",
+    )
+
+
+@rule("CR-11d")
+def cr_11d(ev: Evidence) -> v.Verdict:
+    tokic_policy, length = _tokic_on_crawler(ev)
+    return v.paired_greater(
+        tokic_policy * length / 100,
+        per_cycle(runs(ev, "value_iteration")),
+        "per cycle, the Tokic 6-cycle − the real-time cycle on our crawler (m)",
+    )

@@ -7,7 +7,7 @@ r"""The study's computed evidence: what the claims need beyond the runs' own fil
 need that no run wrote come from here, one JSON file, in about a minute:
 
   * the Tokic model (thesis Table 4.1, Sec. 4.1.7, Appendix): value and policy iteration
-    to convergence and step by step, the γ sweep;
+    to convergence and step by step, the γ sweep, and its greedy policy run on our crawler;
   * the 2-D toy of Sec. 6.1: CEM's final error by noise and elite over 10 seeds;
   * the CPG's targets (no physics): the legs' phase shift, periodicity, what raising one
     amplitude does, how far the learned K = 50 gaits move each joint;
@@ -33,9 +33,10 @@ import os
 import numpy as np
 from absl import flags
 
+import cpg_suite
 from baselines import cem
 from baselines.tabular import models, planning
-from cpg_suite import cli, cpg, protocol, trajectories
+from cpg_suite import cli, cpg, crawler, protocol, trajectories
 from cpg_suite.evaluation import gait
 from cpg_suite.harness import runs
 
@@ -132,6 +133,28 @@ def tokic() -> dict:
         "cells_with_differing_incoming_rewards": sum(len(r) > 1 for r in incoming.values()),
         "reward_2_2_to_3_2": models.load_tokic_rewards()[((2, 2), (3, 2))],
     }
+
+
+def tokic_on_crawler(seeds: int = 5, moves: int = 100) -> dict:
+    """The Tokic table's greedy policy (γ 0.9) run on our MuJoCo crawler from its reset,
+    `moves` moves, no learning: its displacement per seed (the crawler's seed sets its
+    initial state) and its cycle's length (claims CR-11c, CR-11d)."""
+    model = models.tokic_model()
+    policy = planning.value_iteration(model, 0.9).policy
+    displacement = []
+    for seed in range(seeds):
+        env = cpg_suite.load(
+            "crawler_walk", task_kwargs={"random": seed, "time_limit": float("inf")}
+        )
+        ts = env.reset()
+        total = 0.0
+        for _ in range(moves):
+            row, col = (int(x) for x in ts.observation["grid_cell"])
+            ts = env.step(int(policy[crawler.cell_index(row, col)]))
+            total += float(ts.reward)
+        displacement.append(total)
+    cycle = planning.policy_cycle(model, policy)
+    return {"moves": moves, "displacement_m": displacement, "cycle_length": cycle.length}
 
 
 # --- the toy of Sec. 6.1 ------------------------------------------------------------------
@@ -285,6 +308,7 @@ def compute(settings: EvidenceSettings) -> dict:
         "amplitude_names": list(cpg.AMPLITUDE_NAMES),
         "hand_tuned": hand.tolist(),
         "tokic": tokic(),
+        "tokic_on_crawler": tokic_on_crawler(),
         "toy": toy(),
         "cpg": cpg_targets(list(k10.values()), list(k50.values())),
         "hand_tuned_trials": [trial(hand, s) for s in range(HAND_SEEDS)],
