@@ -1,19 +1,15 @@
 """The README's leaderboard table, in Markdown, from a `darwin_leaderboard.csv`.
 
-    python results/protocol/board_table.py [results/protocol/darwin_leaderboard.csv]
-
-One row per configuration of the board, in its order: the ranked rows of each track, then
-the provisional ones and those trained under an earlier benchmark version (`trained_v<n>`,
+`analysis.rebuild` writes it into the README between its board markers. One row per
+configuration of the board, in its order: the ranked rows of each track, then the
+provisional ones and those trained under an earlier benchmark version (`trained_v<n>`,
 listed without a rank). Every figure is the CSV's, rounded for reading.
 """
 
 from __future__ import annotations
 
 import csv
-import os
-import sys
 
-HERE = os.path.dirname(os.path.abspath(__file__))
 TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
 METHODS = {
     "cem": "CEM K = 50, the main job",
@@ -90,13 +86,9 @@ def markdown_row(row: dict) -> str:
     return "| " + " | ".join(cells) + " |"
 
 
-def main(path: str) -> None:
+def markdown(path: str) -> str:
+    """The table (header and a row per configuration but the untrained references) of the
+    board CSV at `path`."""
     with open(path, encoding="utf-8") as f:
         rows = [r for r in csv.DictReader(f) if r["status"] != "reference"]
-    print(HEADER)
-    for row in rows:
-        print(markdown_row(row))
-
-
-if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else os.path.join(HERE, "darwin_leaderboard.csv"))
+    return "\n".join([HEADER, *(markdown_row(r) for r in rows)]) + "\n"
