@@ -11,11 +11,16 @@ def _blocks(language):
         return re.findall(rf"```{language}\n(.*?)```", f.read(), flags=re.S)
 
 
-def test_python_examples_run():
+def test_python_examples_run(tmp_path, monkeypatch):
+    """Every Python block, in a scratch folder (the submission example writes runs/)."""
     blocks = _blocks("python")
     assert blocks
+    monkeypatch.chdir(tmp_path)
     for code in blocks:
         exec(compile(code, README, "exec"), {"__name__": "__readme__"})
+    assert (
+        tmp_path / "runs" / "my_method" / "darwin_walk" / "scaled_seed0" / "trials.csv"
+    ).exists()
 
 
 def test_quick_start_has_the_main_job_and_both_test_tiers():

@@ -172,6 +172,23 @@ def _toy_start(ev: Evidence) -> dict:
     return {"ours": f"{cost:.4f}", "comparison": "same units (a plane)"}
 
 
+def _first_moves(ev: Evidence) -> dict:
+    moves = " -> ".join(str(tuple(m)) for m in ev.computed("tokic")["first_moves"])
+    return {"ours": moves, "comparison": "see CR-19"}
+
+
+def _action_values(ev: Evidence) -> dict:
+    values = ev.computed("tokic")["action_values_at_1_0_sweep2"]
+    return {"ours": ", ".join(f"{q:g}" for q in values), "comparison": "sorted; see CR-19"}
+
+
+# Published results we set no figure beside, and why.
+NO_FIGURE = {
+    "CR-N11": "the run it was measured over is not given (CR-2: not testable); the Tokic "
+    "table's own cycle earns 53 reward units in 6 moves (computed.json)",
+    "PB-N21": "needs the pole's per-step log (PB-14b), which the shipped pole runs do not keep",
+}
+
 OURS = {
     **{
         published._TABLE6_3_IDS[s][i]: _table6_3(s, w)
@@ -188,6 +205,8 @@ OURS = {
     "CEM-N36": _fall_rounds,
     "DW-N06": _hand,
     "DW-N07": _hand_lateral,
+    "CR-N08": _action_values,
+    "CR-N09": _first_moves,
     **chapter4.NUMBERS,
 }
 
@@ -222,6 +241,8 @@ def _ours(pid: str, p: dict, ev: Evidence, owner: dict) -> dict:
         return {"role": "input", "comparison": INPUTS[pid]}
     if p["kind"] == "claim":
         return {"role": "claim", "comparison": f"judged as {owner.get(pid, '(not in catalog)')}"}
+    if pid in NO_FIGURE:
+        return {"role": "result", "comparison": f"no figure of ours: {NO_FIGURE[pid]}"}
     if pid not in OURS:
         return {"role": "result", "comparison": "no figure of ours yet"}
     try:
