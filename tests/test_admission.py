@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from analysis import leaderboard
-from cpg_suite import darwin, protocol
+from cpg_suite import cpg, darwin, protocol
+from cpg_suite.harness import exported
 from cpg_suite.protocol import admission, score, verify
 from cpg_suite.protocol import card as card_stats
 
@@ -22,6 +23,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RUNS = os.path.join(ROOT, "results", "protocol", "runs")
 GAIT_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed0")  # the cheapest
 POLICY_RUN = os.path.join(RUNS, "ppo", "darwin_walk", "cpg_seed0")  # an SB3 policy
+SB3 = (admission.SB3_MODEL, admission.SB3_NORMALIZER)
 
 
 def _copy(runs, name, source=GAIT_RUN, method="cem"):
@@ -338,8 +340,168 @@ def test_ship_from_names_what_a_folder_lacks(tmp_path):
         text=True,
         timeout=120,
     )
-    lacks = "config.json, the gait or policy (selected_params.json, selected_policy.npz or "
+    lacks = "config.json, the gait or policy (selected_params.json, selected_policy.npz, "
     assert out.returncode == 2
     (line,) = out.stderr.splitlines()
     assert line.startswith(f"error: nothing to ship from {tmp_path / 'half'}: {half} lacks {lacks}")
     assert out.stdout.startswith(f"not shippable {half}: missing {lacks}")
+
+
+# The formats added for submissions: an action table is data (read without unpickling);
+# a policy's Python file and SB3 pickles are code, run by verify only when asked.
+class _Payload:
+    """Pickled, it makes a file when unpickled: whether a pickle was loaded shows."""
+
+    def __init__(self, marker):
+        self.marker = marker
+
+    def __reduce__(self):
+        return (open, (str(self.marker), "w"))
+
+
+_CODE = """
+import os
+
+from cpg_suite.protocol import score
+
+open(os.path.join(os.path.dirname(__file__), "executed"), "a").close()
+
+
+def make_policy():
+    return score.OpenLoopPolicy({amplitudes})
+"""
+
+
+def _as_actions(run):
+    """The copied gait run with its gait as a table of actions (the same card, bit for bit)."""
+    amplitudes = cpg.load_amplitudes(str(run / "selected_params.json"))
+    (run / "selected_params.json").unlink()
+    exported.ActionTable.from_gait(amplitudes).save(str(run / "selected_actions.npy"))
+    return run
+
+
+def _as_code(run):
+    """The copied gait run with its gait as a policy's Python file (the same card)."""
+    amplitudes = cpg.load_amplitudes(str(run / "selected_params.json")).tolist()
+    (run / "selected_params.json").unlink()
+    (run / "policy_code.py").write_text(_CODE.format(amplitudes=amplitudes))
+    return run
+
+
+@pytest.fixture(scope="module")
+def formats(tmp_path_factory):
+    """A run tree: an action-table run, its forgeries (card edited, a table of the wrong
+    shape, a table of pickled objects), a policy-code run, and a copy of a shipped SB3 run
+    whose normalizer pickle was swapped (each pickle makes a marker file if loaded)."""
+    runs = tmp_path_factory.mktemp("formats") / "runs"
+    _as_actions(_copy(runs, "actions_seed0"))
+    edited = _as_actions(_copy(runs, "actions_card_edited_seed0"))
+    FORGERIES["card_edited"][0](edited)
+    short = _as_actions(_copy(runs, "actions_short_seed0"))
+    table = exported.ActionTable.load(str(short / "selected_actions.npy"))
+    exported.ActionTable(table.actions[:999]).save(str(short / "selected_actions.npy"))
+    pickled = _as_actions(_copy(runs, "actions_pickled_seed0"))
+    payload = np.array([_Payload(pickled / "unpickled")], dtype=object)
+    np.save(pickled / "selected_actions.npy", payload, allow_pickle=True)
+    _as_code(_copy(runs, "code_seed0"))
+    sb3 = _copy(runs, "cpg_seed0", source=POLICY_RUN, method="ppo")
+    (sb3 / "selected_vecnormalize.pkl").write_bytes(pickle.dumps(_Payload(sb3 / "unpickled")))
+    return runs
+
+
+def _executed(runs):
+    return sorted(
+        os.path.relpath(os.path.join(d, n), runs)
+        for d, _, names in os.walk(runs)
+        for n in names
+        if n in ("executed", "unpickled")
+    )
+
+
+def test_the_board_admits_an_action_table_or_code_on_its_files_alone(formats, tmp_path):
+    leaderboard.write_tables(str(formats), str(tmp_path / "board" / "leaderboard.csv"))
+    refused = {name: row["reason"] for name, row in _not_admitted(tmp_path / "board").items()}
+    assert refused == {
+        "actions_card_edited_seed0": (
+            "its trial table does not produce the card (all: success_weighted_distance_m differs)"
+        ),
+        "actions_short_seed0": (
+            "its selected_actions.npy is a (999, 12) table, not one row of 12 actions per "
+            "control step of its 1000-step trials"
+        ),
+        "actions_pickled_seed0": (
+            "its selected_actions.npy holds Python objects (pickles), not float64 actions"
+        ),
+    }
+    assert _executed(formats) == []  # the code run and the tampered SB3 run: admitted, not run
+    assert admission.artifact_files(str(formats / "cem" / "darwin_walk" / "code_seed0")) == (
+        "policy_code.py",
+    )
+
+
+def test_verify_replays_a_table_and_runs_no_code_it_was_not_asked_to(formats):
+    logged = []
+    assert verify.verify(str(formats), quick=True, log=logged.append) == 5
+    lines = {line.split(";")[0].split()[-1].split("/")[-1]: line for line in logged[:-1]}
+    assert lines["actions_seed0"].startswith("ok ")  # the table replays the gait's trials
+    reasons = {name: line.split("; ", 1)[1] for name, line in lines.items() if ";" in line}
+    assert reasons["code_seed0"] == (
+        "its policy_code.py runs code: re-run with --trust_code to execute it"
+    )
+    assert reasons["cpg_seed0"] == (
+        "its selected_vecnormalize.pkl (pickles: loading runs code) is not in "
+        "results/protocol/trusted_artifacts.txt: re-run with --trust_code to load them"
+    )
+    assert reasons["actions_pickled_seed0"].startswith("its selected_actions.npy holds Python")
+    assert reasons["actions_card_edited_seed0"].startswith("its trial table does not produce")
+    assert logged[-1] == "1 of 6 shipped runs reproduced bit for bit"
+    sb3 = str(formats / "ppo" / "darwin_walk" / "cpg_seed0")
+    with pytest.raises(verify.UntrustedCode, match="selected_vecnormalize.pkl"):
+        verify.shipped_policy(sb3)
+    with pytest.raises(ValueError, match="allow_pickle=False"):  # read as data, refused
+        exported.ActionTable.load(
+            str(formats / "cem" / "darwin_walk" / "actions_pickled_seed0" / "selected_actions.npy")
+        )
+    assert _executed(formats) == []
+    # The payloads are live: loaded as pickles, each would have run.
+    with open(os.path.join(sb3, "selected_vecnormalize.pkl"), "rb") as f:
+        pickle.load(f)
+    assert _executed(formats) == ["ppo/darwin_walk/cpg_seed0/unpickled"]
+    os.remove(os.path.join(sb3, "unpickled"))
+
+
+def test_verify_cli_refuses_code_without_trust_code_and_runs_it_with(tmp_path):
+    runs = tmp_path / "runs"
+    code_run = _as_code(_copy(runs, "code_seed0"))
+
+    def verify_cli(*flags):
+        command = ["-m", "cpg_suite.protocol.verify", f"--artifacts={runs}", "--quick", *flags]
+        return subprocess.run(
+            [sys.executable, *command], capture_output=True, text=True, timeout=600
+        )
+
+    out = verify_cli()
+    assert out.returncode == 1
+    assert out.stdout.splitlines() == [
+        f"REFUSED {code_run}; its policy_code.py runs code: re-run with --trust_code to execute it",
+        "0 of 1 shipped runs reproduced bit for bit",
+    ]
+    assert not (code_run / "executed").exists()
+    out = verify_cli("--trust_code")
+    assert out.returncode == 0, out.stderr[-500:]
+    assert out.stdout.splitlines() == [
+        f"ok   {code_run}",
+        "1 of 1 shipped runs reproduced bit for bit",
+    ]
+    assert (code_run / "executed").exists()
+
+
+def test_the_trusted_list_is_every_shipped_sb3_pickle():
+    with open(os.path.join(ROOT, verify.TRUSTED_LIST), encoding="utf-8") as f:
+        listed = f.read()
+    assert listed == verify.trusted_artifacts_text()
+    sb3_runs = [r for r in verify.shipped_runs(RUNS) if admission.artifact_files(r) == SB3]
+    assert len(sb3_runs) == 20 and len(listed.splitlines()) == 2 * len(sb3_runs)
+    assert all(verify.code_refusal(r) is None for r in sb3_runs)  # verified by default
+    assert verify.code_refusal(sb3_runs[0], trusted=frozenset()) is not None
+    assert verify.code_refusal(sb3_runs[0], trust_code=True, trusted=frozenset()) is None

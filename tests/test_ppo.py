@@ -255,14 +255,18 @@ def test_a_policy_run_ships_and_verifies_bit_for_bit(tmp_path):
     settings = _settings(action_space="cpg", test_tiers=("darwin_walk", "darwin_walk_push"))
     run_dir, summary = ppo.run(settings, _options(tmp_path / "runs"), log=_quiet)
     dest = str(tmp_path / "shipped" / "ppo" / "darwin_walk" / "cpg_seed0")
-    verify.ship(run_dir, dest)
+    with pytest.raises(verify.UntrustedCode, match="not in results/protocol/trusted_artifacts"):
+        verify.ship(run_dir, dest)  # its pickles are no shipped run's: loaded only if asked
+    assert not os.path.exists(dest)
+    verify.ship(run_dir, dest, trust_code=True)
     assert {"selected_model.zip", "selected_vecnormalize.pkl", "progress.csv"} <= set(
         os.listdir(dest)
     )
     assert verify.shipped_runs(str(tmp_path / "shipped")) == [dest]
     trials = verify.read_trials(os.path.join(dest, "trials.csv"))
     assert [t["tier"] for t in trials] == ["darwin_walk", "darwin_walk_push"]
-    assert verify.verify_run(dest) == [] and verify.verify_run(dest, quick=True) == []
+    assert verify.verify_run(dest, trust_code=True) == []
+    assert verify.verify_run(dest, quick=True, trust_code=True) == []
     stored = runs.read_json(os.path.join(dest, "summary.json"))["test"]
     assert stored == summary["test"]
 

@@ -1,10 +1,18 @@
-"""Policies exported as arrays: an MLP run with NumPy in the CPU task, no training library.
+"""Controllers exported as data: an MLP run with NumPy in the CPU task (no training
+library), or an open-loop table of actions.
 
 The format of `selected_policy.npz` (written by `NumpyPolicy.save`; `baselines.ppo_mjx`
 exports Brax's PPO to it): `mean`, `std` (observation normalization), `kernel_<i>`,
 `bias_<i>` (the dense layers, input first), `action_space` ("joints" or "cpg") and `head`
 (`HEADS`; files without it are "tanh_normal").
-`cpg_suite.protocol.verify` re-scores shipped runs of this format.
+
+The format of `selected_actions.npy` (written by `ActionTable.save`): one float64 array of
+shape (control steps, 12), row t the task's action at control step t of a trial (0-based,
+from the reset), each value in the action spec's [−1, 1]; a NumPy `.npy` file without
+pickled objects (`np.load(..., allow_pickle=False)` reads it).
+
+`cpg_suite.protocol.verify` re-scores shipped runs of both formats; neither runs code when
+it is loaded.
 """
 
 from __future__ import annotations
@@ -14,10 +22,12 @@ import io
 import numpy as np
 
 import cpg_suite
-from cpg_suite import darwin, portable, residual
+from cpg_suite import cpg, darwin, portable, residual
 from cpg_suite.harness import runs
 
 FILE = "selected_policy.npz"
+ACTIONS_FILE = "selected_actions.npy"
+N_ACTIONS = len(cpg.LEG_JOINTS)  # the tasks' action: the 12 leg joint targets in [−1, 1]
 ACTION_SPACES = residual.ACTION_SPACES
 # How the last layer's output becomes the deterministic action: "tanh_normal", the first
 # half (a tanh-Gaussian's mean) through tanh; "normal", all of it (a Gaussian's mean,
@@ -137,3 +147,102 @@ class NumpyPolicy:
         if self.cpg is None:
             return action[0]
         return residual.joint_actions(action, self.cpg, self._physics, darwin.CONTROL_TIMESTEP)[0]
+
+
+class ActionTable:
+    """A time-indexed open-loop controller as data: the action of every control step.
+
+    Row t of the table is the action at control step t of a trial (0-based, counted from
+    `reset()`, which the scorer calls before each trial), whatever the observation: the
+    same table plays on every tier and seed. A trial longer than the table is an error.
+    The action is the task's own (`darwin.CPGTask`'s spec: 12 leg joint targets in
+    [−1, 1], in the order `cpg.LEG_JOINTS`).
+    """
+
+    def __init__(self, actions):
+        """Args:
+          actions: (control steps, 12) real actions in [−1, 1] (stored as float64).
+
+        Raises:
+          ValueError: On another shape, or a value that is not finite or not in [−1, 1].
+        """
+        try:
+            table = np.array(actions, dtype=np.float64)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"the actions are not a numeric table: {e}") from None
+        if table.ndim != 2 or table.shape[1] != N_ACTIONS or len(table) == 0:
+            raise ValueError(
+                f"the actions must be a (control steps, {N_ACTIONS}) table, got shape {table.shape}"
+            )
+        if not np.all(np.isfinite(table)):
+            raise ValueError("the actions hold a value that is not finite")
+        if np.any(np.abs(table) > 1.0):
+            raise ValueError("the actions must lie in the task's action space [-1, 1]")
+        table.flags.writeable = False
+        self.actions = table
+        self._t, self._rows = 0, 1
+
+    @classmethod
+    def load(cls, path: str) -> ActionTable:
+        """A table saved by `save`: a float64 `.npy` array, read without unpickling.
+
+        Raises:
+          OSError: If the file cannot be read.
+          ValueError: If it is no `.npy` array of float64 actions (`__init__`'s checks), or
+            holds pickled objects.
+        """
+        table = np.load(path, allow_pickle=False)
+        if not isinstance(table, np.ndarray):  # an .npz archive
+            table.close()
+            raise ValueError(f"{path} is not a single .npy array")
+        if table.dtype != np.float64:
+            raise ValueError(f"{path} holds {table.dtype} values, not float64")
+        return cls(table)
+
+    @classmethod
+    def from_gait(cls, amplitudes, steps: int = 1000) -> ActionTable:
+        """The actions of an open-loop CPG gait (`score.OpenLoopPolicy`'s), as a table.
+
+        Args:
+          amplitudes: The 11 CPG amplitudes, degrees.
+          steps: Control steps (rows).
+        """
+        env = cpg_suite.load("darwin_walk")
+        targets = cpg.trajectories(
+            np.asarray(amplitudes, np.float64), steps, env.control_timestep()
+        )
+        return cls(env.physics.targets_to_action(targets[0]))
+
+    def save(self, path: str) -> None:
+        """Writes the table to `path` (.npy, no pickle), atomically."""
+        buffer = io.BytesIO()
+        np.save(buffer, self.actions, allow_pickle=False)
+        runs.write_bytes(path, buffer.getvalue())
+
+    def reset(self) -> None:
+        """Starts the table again (before each trial)."""
+        self._t = 0
+
+    def _next(self) -> np.ndarray:
+        if self._t >= len(self.actions):
+            raise ValueError(
+                f"the action table has {len(self.actions)} rows: control step {self._t} is "
+                "past its end"
+            )
+        self._t += 1
+        return self.actions[self._t - 1]
+
+    def __call__(self, observation: dict) -> np.ndarray:
+        """The action of the next control step (the observation is not used)."""
+        del observation
+        return self._next().copy()
+
+    def reset_batch(self, rows: int) -> None:
+        """Starts `rows` trials stepped together (`score.batched_policy_trials`)."""
+        self._rows = rows
+        self._t = 0
+
+    def act_batch(self, observations: dict) -> np.ndarray:
+        """(n, 12) actions for n trials stepped together: the next row for each."""
+        del observations
+        return np.tile(self._next(), (self._rows, 1))

@@ -5,8 +5,9 @@ A DARwIn-OP run is ranked or listed on the board of a benchmark version only if
 * its folder holds what `cpg_suite.protocol.verify` needs to score it again: `config.json`
   (the card's settings), `summary.json` (the card), the trial table of the card
   (`trials.csv`, or `trials_v<n>.csv` for a card kept as history), the gait or policy
-  (`selected_params.json`; `selected_policy.npz`; or `selected_model.zip` with
-  `selected_vecnormalize.pkl`) and `versions.json` (what it was made and scored with);
+  (`ARTIFACTS`: `selected_params.json`; `selected_policy.npz`; `selected_actions.npy`;
+  `policy_code.py`; or `selected_model.zip` with `selected_vecnormalize.pkl`) and
+  `versions.json` (what it was made and scored with);
 * its card was made under the protocol's card settings (`card.deviations`): every tier in
   order, all 50 test seeds, 1000-step trials, the supply limit of its version — as its
   config says verify would score it, and as the card shows of itself;
@@ -15,11 +16,16 @@ A DARwIn-OP run is ranked or listed on the board of a benchmark version only if
 * its trial table holds the card's tiers × test seeds and produces the card: every
   statistic but the gait-quality medians (which need the simulation) is made again from
   the table with the card's own arithmetic (`card.row`) and must be equal, bit for bit;
+* an action table (`selected_actions.npy`) has one row of 12 float64 actions per control
+  step of a trial (its `.npy` header says so; the array is not read);
 * it is no copy: no earlier run (in path order) of the same configuration has the same
   trial table or the same gait or policy file, byte for byte.
 
 Everything else is refused with a one-line reason (`refusals`). Nothing here executes code
-from a run folder: JSON and CSV are parsed, the gait or policy files are only hashed.
+from a run folder: JSON and CSV are parsed, the `.npy` header is parsed as data, the gait
+or policy files are only hashed. A run whose policy is code (`CODE_FILES`: a Python file,
+or Stable-Baselines3's pickles) is admitted on its files like any other; whether its code
+may run is `verify`'s question (`--trust_code`, `verify.code_refusal`).
 """
 
 from __future__ import annotations
@@ -33,27 +39,39 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from cpg_suite import electrical, protocol
+from cpg_suite import cpg, electrical, protocol
 from cpg_suite.protocol import card as card_stats
 
 BOARD_VERSION = protocol.BENCHMARK_VERSION  # the version the leaderboard ranks by default
 GAIT = "selected_params.json"
 EXPORTED = "selected_policy.npz"  # `cpg_suite.harness.exported.FILE`
+ACTIONS = "selected_actions.npy"  # `cpg_suite.harness.exported.ACTIONS_FILE`
+CODE = "policy_code.py"  # a Python file defining `make_policy()` (`verify.load_policy_code`)
 SB3_MODEL, SB3_NORMALIZER = "selected_model.zip", "selected_vecnormalize.pkl"
+# The gait or policy files, in verify's order of precedence (the first a folder holds is
+# the one scored): an exported policy, a Stable-Baselines3 policy (model and normalizer),
+# an action table, a policy's code, a gait.
+ARTIFACTS = ((EXPORTED,), (SB3_MODEL, SB3_NORMALIZER), (ACTIONS,), (CODE,), (GAIT,))
+# Those that run code when loaded: a Python file, and the pickles of an SB3 policy. The
+# others are data (JSON, NumPy arrays read without unpickling).
+CODE_FILES = (CODE, SB3_MODEL, SB3_NORMALIZER)
 # A run folder's name: `<config>_seed<S>` (the configuration's name less its seed).
 SEED_NAME = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
 
 
 def artifact_files(run_dir: str) -> tuple[str, ...]:
-    """The files verify scores a run from, in verify's order of precedence: an exported
-    policy, a Stable-Baselines3 policy (model and normalizer), a gait; () for none."""
-    if os.path.exists(os.path.join(run_dir, EXPORTED)):
-        return (EXPORTED,)
-    if os.path.exists(os.path.join(run_dir, SB3_MODEL)):
-        return (SB3_MODEL, SB3_NORMALIZER)
-    if os.path.exists(os.path.join(run_dir, GAIT)):
-        return (GAIT,)
+    """The files verify scores a run from: the first of `ARTIFACTS` whose first file the
+    folder holds; () for none."""
+    for files in ARTIFACTS:
+        if os.path.exists(os.path.join(run_dir, files[0])):
+            return files
     return ()
+
+
+def artifact_phrase() -> str:
+    """The gait or policy files a run may hold, as one phrase (for what a folder lacks)."""
+    names = (GAIT, EXPORTED, ACTIONS, CODE, SB3_MODEL)
+    return f"{', '.join(names[:-1])} or {names[-1]}"
 
 
 def trials_file(card_version: int, current_version: int) -> str:
@@ -79,7 +97,7 @@ def missing_files(run_dir: str, trials: str = "trials.csv") -> list[str]:
     ]
     artifacts = artifact_files(run_dir)
     if not artifacts:
-        missing.append(f"the gait or policy ({GAIT}, {EXPORTED} or {SB3_MODEL})")
+        missing.append(f"the gait or policy ({artifact_phrase()})")
     missing += [a for a in artifacts if not os.path.isfile(os.path.join(run_dir, a))]
     return missing
 
@@ -172,6 +190,44 @@ def trials_refusal(card: dict, trials: list[dict], steps: int) -> str | None:
     return None
 
 
+def actions_refusal(path: str, steps: int) -> str | None:
+    """Why an action table does not fit a run's trials (None: it does), from its `.npy`
+    header alone (parsed as data; the array is not read).
+
+    Args:
+      path: The run's `selected_actions.npy`.
+      steps: Control steps per trial (the run's `trial_steps`).
+
+    Returns:
+      A one-line reason, or None.
+
+    Raises:
+      OSError: If the file cannot be read.
+    """
+    n_actions = len(cpg.LEG_JOINTS)
+    with open(path, "rb") as f:
+        try:
+            version = np.lib.format.read_magic(f)
+            if version == (1, 0):
+                shape, _, dtype = np.lib.format.read_array_header_1_0(f)
+            elif version == (2, 0):
+                shape, _, dtype = np.lib.format.read_array_header_2_0(f)
+            else:
+                return f"its {ACTIONS} is a .npy file of format {version}, not 1.0 or 2.0"
+        except ValueError as e:
+            return f"its {ACTIONS} is not a NumPy .npy array ({e})"
+    if dtype.hasobject:
+        return f"its {ACTIONS} holds Python objects (pickles), not float64 actions"
+    if dtype != np.float64:
+        return f"its {ACTIONS} holds {dtype} values, not float64"
+    if tuple(shape) != (steps, n_actions):
+        return (
+            f"its {ACTIONS} is a {tuple(shape)} table, not one row of {n_actions} actions per "
+            f"control step of its {steps}-step trials"
+        )
+    return None
+
+
 def card_under(summary: dict, version: int | None) -> dict | None:
     """A run's card under a benchmark version: its test card if scored under it, else the
     one kept as history (`verify.upgrade_run`); None: none. `version` None: its test card."""
@@ -252,6 +308,10 @@ def _refusal(run_dir: str, version: int | None) -> str | None:
             f"version {', '.join(map(str, sorted(scored)))}: its first card is made under "
             "the version it trained under"
         )
+    if artifact_files(run_dir) == (ACTIONS,):
+        reason = actions_refusal(os.path.join(run_dir, ACTIONS), steps)
+        if reason:
+            return reason
     trials = read_trials(os.path.join(run_dir, trials_name))
     reason = trials_refusal(card, trials, steps)
     if reason:

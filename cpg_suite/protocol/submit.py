@@ -5,15 +5,21 @@ r"""An outside method's gait or policy, scored under the protocol into a run fol
       --config=K20 --seed=0 --evaluations=400 --root=runs
   python -m cpg_suite.protocol.submit --policy=my_policy.npz --method=my_learner \
       --config=mlp64 --seed=0 --control_steps=2000000 --root=runs
+  python -m cpg_suite.protocol.submit --actions=my_actions.npy --method=my_planner ...
+  python -m cpg_suite.protocol.submit --code=my_policy.py --method=my_controller ...
 
-In Python: `submit_gait(amplitudes, Submission(...))` or `submit_policy(NumpyPolicy(...),
-Submission(...))`. What is submitted is data the benchmark runs itself — the 11 CPG
-amplitudes (`selected_params.json`) or an MLP exported as arrays (`selected_policy.npz`,
-`cpg_suite.harness.exported`) — never code: verify scores it again, and the board reads
-no more than its JSON and CSV files. The card is made the way verify makes it (from the
-files just written), under the protocol's card settings of the current benchmark version;
-the run folder holds `config.json`, `summary.json`, `trials.csv`, `versions.json` and the
-gait or policy, and the board admits it (checked before returning).
+In Python: `submit_gait(amplitudes, Submission(...))`, `submit_policy(NumpyPolicy(...),
+Submission(...))`, `submit_actions(table, Submission(...))` or `submit_code(path,
+Submission(...))`. Data the benchmark runs itself — the 11 CPG amplitudes
+(`selected_params.json`), an MLP exported as arrays (`selected_policy.npz`) or a table of
+actions per control step (`selected_actions.npy`, `cpg_suite.harness.exported`) — is
+scored by verify whenever it is asked; a policy's Python file (`policy_code.py`) is code,
+which verify executes only with `--trust_code` (docs/submit.md#data-and-code). The board
+reads no more than the run's JSON and CSV files (and an action table's `.npy` header), and
+hashes the gait or policy. The card is made the way verify makes it (from the files just
+written), under the protocol's card settings of the current benchmark version; the run
+folder holds `config.json`, `summary.json`, `trials.csv`, `versions.json` and the gait or
+policy, and the board admits it (checked before returning).
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ import dataclasses
 import json
 import os
 import re
+import shutil
 
 from absl import flags
 
@@ -130,11 +137,81 @@ def submit_policy(policy: exported.NumpyPolicy, submission: Submission) -> str:
     return _submit(submission, lambda d: policy.save(os.path.join(d, admission.EXPORTED)))
 
 
-def _submit(submission: Submission, write_artifact) -> str:
+def submit_actions(actions, submission: Submission) -> str:
+    """Scores a time-indexed open-loop controller, a table of actions, under the protocol.
+
+    Row t is the task's action at control step t of every trial (`exported.ActionTable`):
+    a table of one row per control step of a protocol trial, stored as
+    `selected_actions.npy` (float64, no pickle).
+
+    Args:
+      actions: (1000, 12) actions in the task's action space [−1, 1] (an array, or an
+        `exported.ActionTable`).
+      submission: Where the run goes and what it declares.
+
+    Returns:
+      The run folder.
+
+    Raises:
+      ValueError: On another shape, a value outside [−1, 1] or not finite, or if the run
+        folder exists.
+    """
+    table = actions if isinstance(actions, exported.ActionTable) else exported.ActionTable(actions)
+    wanted = (score.ScoreSettings.steps, exported.N_ACTIONS)
+    if table.actions.shape != wanted:
+        raise ValueError(
+            f"the actions must be one row per control step of a protocol trial, shape "
+            f"{wanted}, got {table.actions.shape}"
+        )
+    return _submit(submission, lambda d: table.save(os.path.join(d, admission.ACTIONS)))
+
+
+def submit_code(path: str, submission: Submission) -> str:
+    """Scores a policy given as Python code under the protocol into a run folder.
+
+    The file is copied into the run as `policy_code.py` and executed to score it (calling
+    this is the request to run it): it must define `make_policy()`, returning a callable
+    from the task's observation to a (12,) action in [−1, 1] (with `reset()`, called
+    before each trial, if it keeps state). `verify` runs it again only with `--trust_code`;
+    the board admits the run on its files without running it. For cards that are the same
+    on every machine, compute with `cpg_suite.portable` rather than BLAS
+    (docs/submit.md#data-and-code).
+
+    Args:
+      path: The policy's Python file (one file; it may import what is installed).
+      submission: Where the run goes and what it declares.
+
+    Returns:
+      The run folder.
+
+    Raises:
+      ValueError: If the file defines no `make_policy()` or it returns no callable, or the
+        run folder exists (nothing is left behind).
+      OSError: If the file cannot be read.
+      Exception: Whatever the file raises when it runs.
+    """
+    with open(path, "rb") as f:
+        code = f.read()
+    return _submit(
+        submission,
+        lambda d: runs.write_bytes(os.path.join(d, admission.CODE), code),
+        trust_code=True,
+    )
+
+
+def _submit(submission: Submission, write_artifact, trust_code: bool = False) -> str:
     run_dir = submission.run_dir()
     if os.path.exists(run_dir):
         raise ValueError(f"{run_dir} exists: a submission makes a new run")
     os.makedirs(run_dir)
+    try:
+        return _score_into(run_dir, submission, write_artifact, trust_code)
+    except BaseException:
+        shutil.rmtree(run_dir, ignore_errors=True)  # no half-made run stays behind
+        raise
+
+
+def _score_into(run_dir: str, submission: Submission, write_artifact, trust_code: bool) -> str:
     write_artifact(run_dir)
     settings = {
         "task": submission.training_task,
@@ -159,7 +236,8 @@ def _submit(submission: Submission, write_artifact) -> str:
     card_settings = verify.card_settings(
         config, threads=submission.threads, card={"benchmark_version": protocol.BENCHMARK_VERSION}
     )
-    card, trials = verify.score_run(run_dir, card_settings)  # as verify will score it
+    # As verify will score it (the submitter asked for its code to run, if it is code).
+    card, trials = verify.score_run(run_dir, card_settings, trust_code)
     summary = {"test": json.loads(json.dumps(runs.to_jsonable(score.stored_card(card))))}
     if submission.evaluations is not None:
         summary["evaluations"] = submission.evaluations
@@ -183,6 +261,8 @@ def define_flags() -> None:
     d = Submission  # its defaults (an empty method is no valid submission)
     flags.DEFINE_string("gait", None, "JSON file of the 11 CPG amplitudes (by name).")
     flags.DEFINE_string("policy", None, f"An exported policy ({exported.FILE}'s format).")
+    flags.DEFINE_string("actions", None, "A (1000, 12) float64 .npy table of actions per step.")
+    flags.DEFINE_string("code", None, "A Python file defining make_policy() (it is run).")
     flags.DEFINE_string("root", d.root, "The run tree the run goes into.")
     flags.DEFINE_string("method", d.method, "The method's name.")
     flags.DEFINE_string("config", d.config, "The configuration's name.")
@@ -193,19 +273,29 @@ def define_flags() -> None:
     flags.DEFINE_integer("threads", d.threads, "Evaluator threads (the card does not change).")
 
 
+_KINDS = ("gait", "policy", "actions", "code")  # the flags naming what is submitted
+
+
 def main(argv: list[str]) -> None:
     """Scores the gait or policy into a run folder and prints its path and card."""
     del argv
     submission = cli.settings_from_flags(Submission)
-    gait, policy = flags.FLAGS.gait, flags.FLAGS.policy
-    cli.check((gait is None) != (policy is None), "give exactly one of --gait and --policy")
-    path = gait or policy
-    cli.check(os.path.isfile(path), f"--{'gait' if gait else 'policy'}={path} is not a file")
+    given = [(k, getattr(flags.FLAGS, k)) for k in _KINDS if getattr(flags.FLAGS, k) is not None]
+    cli.check(
+        len(given) == 1,
+        f"give exactly one of {', '.join(f'--{k}' for k in _KINDS[:-1])} and --{_KINDS[-1]}",
+    )
+    ((kind, path),) = given
+    cli.check(os.path.isfile(path), f"--{kind}={path} is not a file")
     try:
-        if gait:
-            run_dir = submit_gait(cpg.load_amplitudes(gait), submission)
+        if kind == "gait":
+            run_dir = submit_gait(cpg.load_amplitudes(path), submission)
+        elif kind == "policy":
+            run_dir = submit_policy(exported.NumpyPolicy.load(path), submission)
+        elif kind == "actions":
+            run_dir = submit_actions(exported.ActionTable.load(path), submission)
         else:
-            run_dir = submit_policy(exported.NumpyPolicy.load(policy), submission)
+            run_dir = submit_code(path, submission)
     except (ValueError, KeyError, OSError) as e:
         raise cli.UsageError(f"{path}: {e}") from None
     card = runs.read_json(os.path.join(run_dir, "summary.json"))["test"]

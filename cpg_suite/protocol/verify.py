@@ -6,6 +6,7 @@ r"""Shipped leaderboard artifacts: make them from run directories, and re-score 
   python -m cpg_suite.protocol.verify --ship_from=runs     # copy finished runs in first
   python -m cpg_suite.protocol.verify --update_cards       # after the card gains a measure
   python -m cpg_suite.protocol.verify --rescore=ppo_mjx    # after a policy's arithmetic changed
+  python -m cpg_suite.protocol.verify --artifacts=runs --trust_code  # runs that are code too
 
 Every run folder is first checked as the leaderboard admits runs
 (`cpg_suite.protocol.admission`); a folder it would refuse — a file missing, a card made
@@ -23,7 +24,9 @@ behind its leaderboard row (docs/protocol.md#shipped-artifacts):
     (its rounds); or, for a policy learner, `selected_model.zip` and
     `selected_vecnormalize.pkl` (the SB3 model and its observation normalizer), or
     `selected_policy.npz` (a policy exported to NumPy, `cpg_suite.harness.exported`), and
-    `progress.csv` (its learning curve);
+    `progress.csv` (its learning curve); or, for a submission (`cpg_suite.protocol.submit`),
+    `selected_actions.npy` (an open-loop table of actions, `exported.ActionTable`) or
+    `policy_code.py` (a Python file whose `make_policy()` returns the policy);
   * `trials.csv`: the card's trials, one row per tier and test seed (`score.TRIAL_FIELDS`);
   * `versions.json`: the versions it was made with and those it was scored with here.
 
@@ -32,6 +35,14 @@ trial with what is stored: the same bits on the same package versions
 (`results/protocol/constraints.txt` pins those of the reference results). Exit code 1 on
 any difference. `--quick` re-scores the first 5 test seeds of every tier for the first run
 of each configuration and compares those trials only.
+
+Code runs only when asked (docs/protocol.md#data-and-code). The gait, an exported policy and
+an action table are data: JSON, and NumPy arrays read without unpickling. A run whose
+policy is code — `policy_code.py`, or an SB3 policy's pickles, which run code when loaded —
+is scored only with `--trust_code` (`trust_code=True`), or, for SB3 pickles, when the
+SHA-256 of each is listed in `results/protocol/trusted_artifacts.txt` (the shipped runs',
+tracked with the project: `trusted_artifacts_text`, `--write_trusted`); otherwise it is
+`REFUSED` with the reason and nothing of it is loaded (`code_refusal`).
 
 When the score card gains a measure, `--update_cards` re-scores every shipped run, checks
 that every trial is unchanged (the gait does what it did), and only then rewrites the
@@ -51,10 +62,14 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 import concurrent.futures
 import contextlib
 import dataclasses
+import hashlib
+import importlib.util
 import json
 import multiprocessing
 import os
+import re
 import shutil
+import sys
 from collections.abc import Callable
 
 import numpy as np
@@ -70,15 +85,29 @@ ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results
 COPIED = ("selected_params.json", "best_params.json", "progress.csv")
 COPIED_POLICY = ("selected_model.zip", "selected_vecnormalize.pkl", "progress.csv")
 COPIED_EXPORTED = (exported.FILE, "progress.csv")
+COPIED_ACTIONS = (admission.ACTIONS,)  # a submitted action table
+COPIED_CODE = (admission.CODE,)  # a submitted policy's code
 _GAIT, _POLICY, _EXPORTED = COPIED[0], COPIED_POLICY[0], COPIED_EXPORTED[0]
+_ARTIFACT_NAMES = {files[0] for files in admission.ARTIFACTS}
 QUICK_SEEDS = 5  # test seeds per tier in a quick verification
+# The project's list of trusted pickles (tracked with it, beside the shipped runs): the
+# SHA-256 and path of every Stable-Baselines3 file under `ARTIFACTS`, as `sha256sum` writes
+# them (`sha256sum -c results/protocol/trusted_artifacts.txt` in the repository checks it).
+_REPOSITORY = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+TRUSTED_LIST = os.path.join("results", "protocol", "trusted_artifacts.txt")
+_TRUSTED_LINE = re.compile(r"^(?P<digest>[0-9a-f]{64}) [ *](?P<path>.+)$")
+SB3_FILES = (admission.SB3_MODEL, admission.SB3_NORMALIZER)
+
+
+class UntrustedCode(ValueError):
+    """A run's policy is code that was not trusted (`code_refusal`): it was not loaded."""
 
 
 def shipped_runs(root: str) -> list[str]:
     """The run folders under `root` (a summary and a selected gait or policy), sorted."""
     found = []
     for dirpath, _, names in os.walk(root):
-        if "summary.json" in names and {_GAIT, _POLICY, _EXPORTED} & set(names):
+        if "summary.json" in names and _ARTIFACT_NAMES & set(names):
             found.append(dirpath)
     return sorted(found)
 
@@ -86,8 +115,129 @@ def shipped_runs(root: str) -> list[str]:
 def run_folders(root: str) -> list[str]:
     """The folders under `root` that look like runs (a summary, a trial table, or a gait or
     policy file), sorted: the shipped runs and those that lack a file (`admission`)."""
-    marks = {"summary.json", "trials.csv", _GAIT, _POLICY, _EXPORTED}
+    marks = {"summary.json", "trials.csv", *_ARTIFACT_NAMES}
     return sorted(dirpath for dirpath, _, names in os.walk(root) if marks & set(names))
+
+
+def file_digest(path: str) -> str:
+    """The SHA-256 of a file, as hex digits."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def trusted_digests(path: str | None = None) -> frozenset[str]:
+    """The SHA-256 digests of the trusted pickles (`TRUSTED_LIST`).
+
+    Args:
+      path: The list (None: the project's, `TRUSTED_LIST` in the repository).
+
+    Returns:
+      The digests; none if the list does not exist.
+
+    Raises:
+      ValueError: On a line that is not `<sha256>  <path>`.
+    """
+    path = os.path.join(_REPOSITORY, TRUSTED_LIST) if path is None else path
+    if not os.path.isfile(path):
+        return frozenset()
+    digests = set()
+    with open(path, encoding="utf-8") as f:
+        for number, line in enumerate(f, 1):
+            match = _TRUSTED_LINE.match(line.rstrip("\n"))
+            if not match:
+                raise ValueError(f"{path}:{number} is not '<sha256>  <path>'")
+            digests.add(match["digest"])
+    return frozenset(digests)
+
+
+def trusted_artifacts_text(artifacts: str | None = None) -> str:
+    """The trusted list of the pickles shipped under `artifacts`: a line `<sha256>  <path>`
+    for every Stable-Baselines3 file (`SB3_FILES`) of a run, sorted by path, the path
+    relative to the repository (what `TRUSTED_LIST` holds).
+
+    Args:
+      artifacts: A folder of shipped runs (None: the project's, `ARTIFACTS`).
+    """
+    artifacts = os.path.join(_REPOSITORY, ARTIFACTS) if artifacts is None else artifacts
+    lines = []
+    for dirpath, _, names in os.walk(artifacts):
+        for name in sorted(set(names) & set(SB3_FILES)):
+            path = os.path.join(dirpath, name)
+            relative = os.path.relpath(path, _REPOSITORY).replace(os.sep, "/")
+            lines.append((relative, f"{file_digest(path)}  {relative}"))
+    return "".join(f"{line}\n" for _, line in sorted(lines))
+
+
+def code_refusal(
+    run_dir: str, trust_code: bool = False, trusted: frozenset[str] | None = None
+) -> str | None:
+    """Why verify does not load a run's policy without being asked to (None: it may).
+
+    A run's `policy_code.py` is executed only with `trust_code`; its Stable-Baselines3
+    pickles are loaded with `trust_code` or when the SHA-256 of each is trusted. Data
+    (a gait, an exported policy, an action table) is always loaded. Nothing is loaded here.
+
+    Args:
+      run_dir: A run folder.
+      trust_code: Whether its code may run whatever it is (`--trust_code`).
+      trusted: The trusted digests (None: `trusted_digests()`).
+
+    Returns:
+      A one-line reason, or None.
+    """
+    files = admission.artifact_files(run_dir)
+    if trust_code or not files or files[0] not in admission.CODE_FILES:
+        return None
+    if files == (admission.CODE,):
+        return f"its {admission.CODE} runs code: re-run with --trust_code to execute it"
+    trusted = trusted_digests() if trusted is None else trusted
+    untrusted = [n for n in files if file_digest(os.path.join(run_dir, n)) not in trusted]
+    if not untrusted:
+        return None
+    return (
+        f"its {' and '.join(untrusted)} (pickles: loading runs code) "
+        f"{'is' if len(untrusted) == 1 else 'are'} not in {TRUSTED_LIST}: re-run with "
+        "--trust_code to load them"
+    )
+
+
+def load_policy_code(path: str) -> Callable[[dict], np.ndarray]:
+    """Executes a policy's Python file and returns its `make_policy()`: code runs here.
+
+    The file is executed as a module of its own (importable by name only while it runs);
+    it may import what is installed (NumPy, `cpg_suite`).
+
+    Args:
+      path: The file (`policy_code.py`).
+
+    Returns:
+      The policy: a callable from the task's observation to a (12,) action, with `reset()`
+      called before each trial if it has one.
+
+    Raises:
+      ValueError: If the file defines no `make_policy()` or it returns no callable.
+      Exception: Whatever the file raises.
+    """
+    name = f"_policy_code_{file_digest(path)[:16]}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ValueError(f"{path} cannot be loaded as Python")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # while it runs: what dataclasses and pickle look up
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.modules.pop(name, None)
+    make = getattr(module, "make_policy", None)
+    if not callable(make):
+        raise ValueError(f"{path} defines no make_policy()")
+    policy = make()
+    if not callable(policy):
+        raise ValueError(f"{path}: make_policy() returned {type(policy).__name__}, not a policy")
+    return policy
 
 
 def card_settings(
@@ -135,7 +285,9 @@ def gait_params(run_dir: str, controller: str) -> np.ndarray:
     return cpg.load_amplitudes(path)
 
 
-def rescore(run_dir: str, seeds: int | None = None, threads: int = 2) -> tuple[dict, list[dict]]:
+def rescore(
+    run_dir: str, seeds: int | None = None, threads: int = 2, trust_code: bool = False
+) -> tuple[dict, list[dict]]:
     """Scores a run's selected gait or policy again: `(card, trials)` as
     `score.score_gait_trials`.
 
@@ -143,11 +295,13 @@ def rescore(run_dir: str, seeds: int | None = None, threads: int = 2) -> tuple[d
       run_dir: A run directory or a shipped run.
       seeds: Test seeds per tier (None: as many as the run's card has).
       threads: Evaluator threads (the results do not depend on it).
+      trust_code: Whether a policy that is code may run (`code_refusal`).
 
     Raises:
       OSError, KeyError, ValueError: On a run without a readable config or gait.
+      UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
     """
-    return score_run(run_dir, run_settings(run_dir, seeds, threads))
+    return score_run(run_dir, run_settings(run_dir, seeds, threads), trust_code)
 
 
 def run_settings(run_dir: str, seeds: int | None = None, threads: int = 2) -> score.ScoreSettings:
@@ -156,33 +310,51 @@ def run_settings(run_dir: str, seeds: int | None = None, threads: int = 2) -> sc
     return card_settings(config, seeds, threads, stored_card(run_dir))
 
 
-def score_run(run_dir: str, settings: score.ScoreSettings) -> tuple[dict, list[dict]]:
+def score_run(
+    run_dir: str, settings: score.ScoreSettings, trust_code: bool = False
+) -> tuple[dict, list[dict]]:
     """Scores a run's selected gait or policy under `settings`: `(card, trials)` as
-    `score.score_gait_trials` (an SB3 policy with single-threaded torch)."""
-    policy = shipped_policy(run_dir)
+    `score.score_gait_trials` (an SB3 policy with single-threaded torch).
+
+    Raises:
+      UntrustedCode: If its policy is code not trusted (`code_refusal`; not loaded).
+    """
+    policy = shipped_policy(run_dir, trust_code)
     if policy is None:
         return score.score_gait_trials(gait_params(run_dir, settings.controller), settings)
     with policy_threads(run_dir):
         return score.score_policy_trials(policy, settings)
 
 
-def shipped_policy(run_dir: str) -> Callable[[dict], np.ndarray] | None:
+def shipped_policy(run_dir: str, trust_code: bool = False) -> Callable[[dict], np.ndarray] | None:
     """A run's selected policy, or None if the run selected a gait.
 
     Args:
       run_dir: A run directory or a shipped run.
+      trust_code: Whether a policy that is code may run whatever it is (`code_refusal`).
 
     Returns:
-      The exported (`selected_policy.npz`) or Stable-Baselines3 (`selected_model.zip`)
-      policy, as `score.policy_trial` runs it; None for a gait run (`selected_params.json`).
+      The exported (`selected_policy.npz`), action-table (`selected_actions.npy`), coded
+      (`policy_code.py`) or Stable-Baselines3 (`selected_model.zip`) policy, as
+      `score.policy_trial` runs it; None for a gait run (`selected_params.json`).
 
     Raises:
       OSError, KeyError, ValueError: On a run without a readable config or policy.
+      UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
     """
-    if os.path.exists(os.path.join(run_dir, _EXPORTED)):
-        return exported.NumpyPolicy.load(os.path.join(run_dir, _EXPORTED))
-    if not os.path.exists(os.path.join(run_dir, _POLICY)):
+    files = admission.artifact_files(run_dir)
+    if files in ((), (_GAIT,)):
         return None
+    reason = code_refusal(run_dir, trust_code)
+    if reason:
+        raise UntrustedCode(f"{run_dir}: {reason}")
+    path = os.path.join(run_dir, files[0])
+    if files[0] == _EXPORTED:
+        return exported.NumpyPolicy.load(path)
+    if files[0] == admission.ACTIONS:
+        return exported.ActionTable.load(path)
+    if files[0] == admission.CODE:
+        return load_policy_code(path)
     from cpg_suite.harness import sb3  # the `rl` extra: only runs of policy learners
 
     config = runs.read_json(os.path.join(run_dir, "config.json"))
@@ -193,7 +365,7 @@ def shipped_policy(run_dir: str) -> Callable[[dict], np.ndarray] | None:
 def policy_threads(run_dir: str) -> contextlib.AbstractContextManager:
     """Single-threaded torch while a run's Stable-Baselines3 policy acts (its results then do
     not depend on threads); nothing for other runs."""
-    if os.path.exists(os.path.join(run_dir, _POLICY)):
+    if admission.artifact_files(run_dir) == SB3_FILES:
         from cpg_suite.harness import sb3
 
         return sb3.single_threaded()
@@ -232,7 +404,7 @@ def extends(fresh, stored) -> bool:
     return fresh == stored
 
 
-def ship(run_dir: str, dest: str, threads: int = 2) -> str:
+def ship(run_dir: str, dest: str, threads: int = 2, trust_code: bool = False) -> str:
     """Copies a finished run's artifacts into `dest` and adds its trials and versions.
 
     The gait or policy is scored again; its card must equal the run's own, or extend it
@@ -243,17 +415,19 @@ def ship(run_dir: str, dest: str, threads: int = 2) -> str:
       run_dir: A finished run directory (summary with a test card, selected gait).
       dest: The shipped run's folder (created).
       threads: Evaluator threads.
+      trust_code: Whether a policy that is code may run (`code_refusal`).
 
     Returns:
       `dest`.
 
     Raises:
       ValueError: If the run has no test card, or the fresh card differs from it.
+      UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
     summary = runs.read_json(os.path.join(run_dir, "summary.json"))
     if "test" not in summary:
         raise ValueError(f"{run_dir} has no test score card")
-    card, trials = rescore(run_dir, threads=threads)
+    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code)
     fresh = _jsonable(score.stored_card(card))
     if not extends(fresh, summary["test"]):
         raise ValueError(f"{run_dir}: scored again, its card differs from the run's")
@@ -270,11 +444,16 @@ def ship(run_dir: str, dest: str, threads: int = 2) -> str:
 
 
 def _copied(run_dir: str) -> tuple[str, ...]:
-    """The artifacts of a run copied as they are: an exported policy's, an SB3 policy's or a
-    gait's."""
-    if os.path.exists(os.path.join(run_dir, _EXPORTED)):
-        return COPIED_EXPORTED
-    return COPIED_POLICY if os.path.exists(os.path.join(run_dir, _POLICY)) else COPIED
+    """The artifacts of a run copied as they are: an exported policy's, an SB3 policy's, an
+    action table's, a coded policy's or a gait's (`admission.artifact_files`' choice)."""
+    first = (admission.artifact_files(run_dir) or (_GAIT,))[0]
+    by_first = {
+        _EXPORTED: COPIED_EXPORTED,
+        _POLICY: COPIED_POLICY,
+        admission.ACTIONS: COPIED_ACTIONS,
+        admission.CODE: COPIED_CODE,
+    }
+    return by_first.get(first, COPIED)
 
 
 def unshippable(run_dir: str) -> list[str]:
@@ -288,7 +467,7 @@ def unshippable(run_dir: str) -> list[str]:
     """
     missing = [n for n in ("summary.json", "config.json") if not _isfile(run_dir, n)]
     if not admission.artifact_files(run_dir):
-        return [*missing, f"the gait or policy ({_GAIT}, {_EXPORTED} or {_POLICY})"]
+        return [*missing, f"the gait or policy ({admission.artifact_phrase()})"]
     return missing + [n for n in _copied(run_dir) if not _isfile(run_dir, n)]
 
 
@@ -296,13 +475,25 @@ def _isfile(run_dir: str, name: str) -> bool:
     return os.path.isfile(os.path.join(run_dir, name))
 
 
-def ship_all(root: str, artifacts: str, log: Callable[[str], None] = progress.write) -> int:
+def ship_all(
+    root: str,
+    artifacts: str,
+    log: Callable[[str], None] = progress.write,
+    trust_code: bool = False,
+) -> int:
     """Ships every finished DARwIn-OP run under `root` into `artifacts` (same layout),
     except those shipped before.
 
-    A folder that lacks a file `ship` copies is named with what it lacks, one line each; a
+    A folder that lacks a file `ship` copies is named with what it lacks, one line each; so
+    is a run whose policy is code not trusted (`code_refusal`; nothing of it is loaded); a
     shipped run the leaderboard would not admit (`admission.run_refusal`: a card under
     other settings than the protocol's, say) is shipped and named with the reason.
+
+    Args:
+      root: The finished runs.
+      artifacts: The folder of shipped runs.
+      log: Given a line per run named.
+      trust_code: Whether a policy that is code may run (`--trust_code`).
 
     Returns:
       How many runs were shipped.
@@ -320,24 +511,30 @@ def ship_all(root: str, artifacts: str, log: Callable[[str], None] = progress.wr
         dest = os.path.join(artifacts, os.path.relpath(run_dir, root))
         if os.path.exists(os.path.join(dest, "trials.csv")):
             continue  # shipped before (`verify` checks it)
-        ship(run_dir, dest)
+        reason = code_refusal(run_dir, trust_code)
+        if reason:
+            log(f"not shipped {run_dir}: {reason}")
+            continue
+        ship(run_dir, dest, trust_code=trust_code)
         reason = admission.run_refusal(dest)
         log(f"shipped {dest}" + (f"; the board will not admit it: {reason}" if reason else ""))
         shipped += 1
     return shipped
 
 
-def update_card(run_dir: str, threads: int = 2) -> None:
+def update_card(run_dir: str, threads: int = 2, trust_code: bool = False) -> None:
     """Re-scores a shipped run and stores the new card, if its trials are unchanged.
 
     Args:
       run_dir: A shipped run.
       threads: Evaluator threads.
+      trust_code: Whether a policy that is code may run (`code_refusal`).
 
     Raises:
       ValueError: If a trial differs from `trials.csv` (nothing is written then).
+      UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
-    card, trials = rescore(run_dir, threads=threads)
+    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code)
     if trials != read_trials(os.path.join(run_dir, "trials.csv")):
         raise ValueError(f"{run_dir}: its trials changed; ship the run again instead")
     _store_card(run_dir, card)
@@ -354,7 +551,7 @@ def _store_card(run_dir: str, card: dict) -> None:
     runs.write_json(versions_path, versions)
 
 
-def rescore_run(run_dir: str, threads: int = 2) -> None:
+def rescore_run(run_dir: str, threads: int = 2, trust_code: bool = False) -> None:
     """Re-scores a shipped run and stores its card and trials, whatever they were.
 
     For a change to the code that runs a shipped policy, not to the policy: its test card
@@ -363,26 +560,35 @@ def rescore_run(run_dir: str, threads: int = 2) -> None:
     Args:
       run_dir: A shipped run.
       threads: Evaluator threads.
+      trust_code: Whether a policy that is code may run (`code_refusal`).
 
     Raises:
       OSError, KeyError, ValueError: On a run without a readable config or policy.
+      UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
-    card, trials = rescore(run_dir, threads=threads)
+    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code)
     write_trials(os.path.join(run_dir, "trials.csv"), trials)
     _store_card(run_dir, card)
 
 
-def verify_run(run_dir: str, quick: bool = False, threads: int = 2) -> list[str]:
+def verify_run(
+    run_dir: str, quick: bool = False, threads: int = 2, trust_code: bool = False
+) -> list[str]:
     """Re-scores one shipped run; the differences from what it stores (empty: none).
 
     Args:
       run_dir: A shipped run.
       quick: Only the first `QUICK_SEEDS` test seeds per tier, compared trial by trial.
       threads: Evaluator threads.
+      trust_code: Whether a policy that is code may run (`code_refusal`).
+
+    Raises:
+      UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
     """
     stored_trials = read_trials(os.path.join(run_dir, "trials.csv"))
     stored_seeds = len({t["seed"] for t in stored_trials})
-    card, trials = rescore(run_dir, min(QUICK_SEEDS, stored_seeds) if quick else None, threads)
+    seeds = min(QUICK_SEEDS, stored_seeds) if quick else None
+    card, trials = rescore(run_dir, seeds, threads, trust_code)
     if quick:
         wanted = {(t["tier"], t["seed"]) for t in trials}
         stored_trials = [t for t in stored_trials if (t["tier"], t["seed"]) in wanted]
@@ -402,7 +608,12 @@ def history_trials_file(version: int) -> str:
     return f"trials_v{version}.csv"
 
 
-def upgrade_run(run_dir: str, version: int = protocol.BENCHMARK_VERSION, threads: int = 2) -> bool:
+def upgrade_run(
+    run_dir: str,
+    version: int = protocol.BENCHMARK_VERSION,
+    threads: int = 2,
+    trust_code: bool = False,
+) -> bool:
     """Re-scores a shipped run under a new benchmark version, keeping its card as history.
 
     Its card under its own version is made again first (its trials must be unchanged: the
@@ -414,18 +625,20 @@ def upgrade_run(run_dir: str, version: int = protocol.BENCHMARK_VERSION, threads
       run_dir: A shipped run.
       version: The benchmark version to score under.
       threads: Evaluator threads.
+      trust_code: Whether a policy that is code may run (`code_refusal`).
 
     Returns:
       Whether the run was upgraded.
 
     Raises:
       ValueError: If the run's trials under its own version changed (nothing is written).
+      UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
     summary_path = os.path.join(run_dir, "summary.json")
     old = runs.read_json(summary_path)["test"].get("benchmark_version", 1)
     if old == version:
         return False
-    card, trials = rescore(run_dir, threads=threads)
+    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code)
     if trials != read_trials(os.path.join(run_dir, "trials.csv")):
         raise ValueError(f"{run_dir}: its trials under version {old} changed")
     write_trials(os.path.join(run_dir, history_trials_file(old)), trials)
@@ -436,7 +649,7 @@ def upgrade_run(run_dir: str, version: int = protocol.BENCHMARK_VERSION, threads
     settings = dataclasses.replace(
         card_settings(config, threads=threads), benchmark_version=version
     )
-    card, trials = score_run(run_dir, settings)
+    card, trials = score_run(run_dir, settings, trust_code)
     write_trials(os.path.join(run_dir, "trials.csv"), trials)
     _store_card(run_dir, card)
     return True
@@ -469,6 +682,7 @@ def verify(
     threads: int = 2,
     log: Callable[[str], None] = print,
     jobs: int = 1,
+    trust_code: bool = False,
 ) -> int:
     """Re-scores the shipped runs under `artifacts`.
 
@@ -479,11 +693,15 @@ def verify(
       log: Given a line per run, in the order of the runs, and a last line.
       jobs: Runs re-scored at once, each in its own process (1: in this one). The runs are
         independent: the outcome does not depend on it.
+      trust_code: Whether policies that are code may run whatever they are
+        (`code_refusal`; `--trust_code`).
 
     Every run folder is first checked as the leaderboard checks it (`admission.refusals`:
     the files verify needs, a card made under the protocol's card settings that its
-    trials produce, no copies); a folder it refuses is logged `REFUSED` with the reason,
-    counts as differing, and is not scored again (nothing of it is loaded).
+    trials produce, no copies), then whether its policy may be loaded (`code_refusal`: a
+    policy that is code runs only with `trust_code`, SB3 pickles also when trusted); a
+    folder refused is logged `REFUSED` with the reason, counts as differing, and is not
+    scored again (nothing of it is loaded).
 
     Returns:
       The number of runs that differ or are refused (0: every card and trial reproduced
@@ -496,6 +714,11 @@ def verify(
     if not folders:
         raise ValueError(f"no shipped runs under {artifacts}")
     refused = admission.refusals(folders)
+    trusted = None if trust_code else trusted_digests()
+    for run_dir in folders:
+        reason = None if run_dir in refused else code_refusal(run_dir, trust_code, trusted)
+        if reason:
+            refused[run_dir] = reason
     shipped = [run_dir for run_dir in folders if run_dir not in refused]
     chosen = _quick_sample(shipped) if quick else shipped
     failed = len(refused)
@@ -506,12 +729,12 @@ def verify(
                 concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn)
             )
             futures = {  # the dearest first, so that no long run starts last
-                run_dir: pool.submit(verify_run, run_dir, quick, threads)
+                run_dir: pool.submit(verify_run, run_dir, quick, threads, trust_code)
                 for run_dir in sorted(chosen, key=_expected_cost, reverse=True)
             }
             outcome = lambda run_dir: futures[run_dir].result()  # noqa: E731
         else:
-            outcome = lambda run_dir: verify_run(run_dir, quick, threads)  # noqa: E731
+            outcome = lambda run_dir: verify_run(run_dir, quick, threads, trust_code)  # noqa: E731
         for run_dir in sorted([*chosen, *refused]):
             if run_dir in refused:
                 log(f"REFUSED {run_dir}; {refused[run_dir]}")
@@ -542,6 +765,55 @@ def define_flags() -> None:
         None,
         "Score every shipped run under this benchmark version, its card kept as history.",
     )
+    flags.DEFINE_bool(
+        "trust_code",
+        False,
+        "Run policies that are code: policy_code.py, SB3 pickles not trusted.",
+    )
+    flags.DEFINE_bool(
+        "write_trusted",
+        False,
+        f"Write {TRUSTED_LIST} (every SB3 pickle under --artifacts).",
+    )
+
+
+def _maintain(values: flags.FlagValues) -> bool:
+    """Runs --rescore, --upgrade_to or --update_cards, if one is given.
+
+    Args:
+      values: The parsed flags.
+
+    Returns:
+      Whether one was given.
+
+    Raises:
+      UntrustedCode: On a run whose policy is code not trusted (`code_refusal`).
+    """
+    if values.rescore is not None:
+        chosen = os.path.join(values.artifacts, values.rescore)
+        cli.check(
+            os.path.isdir(chosen),
+            f"--rescore={values.rescore} is not a folder of {values.artifacts}",
+        )
+        for run_dir in shipped_runs(chosen):
+            rescore_run(run_dir, values.threads, values.trust_code)
+            progress.write(f"re-scored: {run_dir}")
+        return True
+    if values.upgrade_to is not None:
+        cli.check(
+            values.upgrade_to in protocol.VERSIONS,
+            f"--upgrade_to must be one of {sorted(protocol.VERSIONS)}, got {values.upgrade_to}",
+        )
+        for run_dir in shipped_runs(values.artifacts):
+            if upgrade_run(run_dir, values.upgrade_to, values.threads, values.trust_code):
+                progress.write(f"upgraded to version {values.upgrade_to}: {run_dir}")
+        return True
+    if values.update_cards:
+        for run_dir in shipped_runs(values.artifacts):
+            update_card(run_dir, values.threads, values.trust_code)
+            progress.write(f"card updated: {run_dir}")
+        return True
+    return False
 
 
 def main(argv: list[str]) -> None:
@@ -554,7 +826,7 @@ def main(argv: list[str]) -> None:
         cli.check(
             os.path.isdir(values.ship_from), f"--ship_from={values.ship_from} is not a directory"
         )
-        shipped = ship_all(values.ship_from, values.artifacts)
+        shipped = ship_all(values.ship_from, values.artifacts, trust_code=values.trust_code)
         lacking = [(d, unshippable(d)) for d in run_folders(values.ship_from)]
         lacking = [(d, missing) for d, missing in lacking if missing]
         if not shipped and lacking and not run_folders(values.artifacts):
@@ -564,32 +836,30 @@ def main(argv: list[str]) -> None:
                 f"nothing to ship from {values.ship_from}: {first} lacks {', '.join(missing)}{more}"
             )
     cli.check(os.path.isdir(values.artifacts), f"--artifacts={values.artifacts} is not a directory")
-    if values.rescore is not None:
-        chosen = os.path.join(values.artifacts, values.rescore)
+    if values.write_trusted:
+        inside = os.path.relpath(os.path.abspath(values.artifacts), _REPOSITORY)
         cli.check(
-            os.path.isdir(chosen),
-            f"--rescore={values.rescore} is not a folder of {values.artifacts}",
+            not inside.startswith(os.pardir),
+            f"--write_trusted lists the project's runs: --artifacts={values.artifacts} is "
+            "outside the repository",
         )
-        for run_dir in shipped_runs(chosen):
-            rescore_run(run_dir, values.threads)
-            progress.write(f"re-scored: {run_dir}")
+        path = os.path.join(_REPOSITORY, TRUSTED_LIST)
+        runs.write_text(path, trusted_artifacts_text(values.artifacts))
+        progress.write(f"wrote {path}")
         return
-    if values.upgrade_to is not None:
-        cli.check(
-            values.upgrade_to in protocol.VERSIONS,
-            f"--upgrade_to must be one of {sorted(protocol.VERSIONS)}, got {values.upgrade_to}",
-        )
-        for run_dir in shipped_runs(values.artifacts):
-            if upgrade_run(run_dir, values.upgrade_to, values.threads):
-                progress.write(f"upgraded to version {values.upgrade_to}: {run_dir}")
-        return
-    if values.update_cards:
-        for run_dir in shipped_runs(values.artifacts):
-            update_card(run_dir, values.threads)
-            progress.write(f"card updated: {run_dir}")
-        return  # the cards were just made by the same scoring: run verify on its own
     try:
-        failed = verify(values.artifacts, values.quick, values.threads, jobs=values.jobs)
+        if _maintain(values):
+            return  # the cards were just made by the same scoring: run verify on its own
+    except UntrustedCode as e:
+        raise cli.UsageError(str(e)) from None
+    try:
+        failed = verify(
+            values.artifacts,
+            values.quick,
+            values.threads,
+            jobs=values.jobs,
+            trust_code=values.trust_code,
+        )
     except ValueError as e:
         raise cli.UsageError(str(e)) from None
     if failed:
