@@ -77,3 +77,16 @@ def test_every_reading_explains_a_claim_that_did_not_hold():
         verdicts = {r["id"]: r["verdict"] for r in csv.DictReader(f)}
     stale = {i: verdicts.get(i) for i in READINGS if verdicts.get(i) not in ("fails", "mixed")}
     assert not stale, f"readings of claims that no longer fail: {stale}"
+
+
+def test_every_untested_claim_says_what_it_needs(rows):
+    from analysis.study.readings import NEEDS
+
+    wholes_with_parts = set(catalog.parts_of(rows))
+    lacking = {
+        r["id"]
+        for r in rows
+        if r["testable"] == "yes" and r["id"] not in RULES and r["id"] not in wholes_with_parts
+    }
+    assert lacking <= set(NEEDS), lacking - set(NEEDS)
+    assert not set(NEEDS) & set(RULES), "a claim with a rule is still listed as needing one"

@@ -27,7 +27,7 @@ from collections import Counter
 from analysis.study import catalog, chapter4, chapter5, chapter6, numbers  # noqa: F401
 from analysis.study import verdicts as v
 from analysis.study.evidence import Evidence, MissingEvidence
-from analysis.study.readings import READINGS
+from analysis.study.readings import NEEDS, READINGS
 from analysis.study.registry import RULES
 
 OUT = os.path.join("results", "study")
@@ -72,7 +72,7 @@ def _judge_one(row: dict, ev: Evidence) -> v.Verdict:
         return v.untestable(row["testable"].partition(":")[2].strip())
     rule = RULES.get(row["id"])
     if rule is None:
-        return _Untested("", "no rule yet")
+        return _Untested("", f"no evidence yet: needs {NEEDS.get(row['id'], 'a rule')}")
     try:
         verdict = rule(ev)
     except MissingEvidence as e:

@@ -79,6 +79,18 @@ def cem_14b(ev: Evidence) -> v.Verdict:
     return v.Verdict(verdict, f"{gain.evidence}; NAC-3 {nac.verdict}", nac.why)
 
 
+@rule("CPG-4")
+def cpg_4(ev: Evidence) -> v.Verdict:
+    half = ev.computed("sole_half_length_m")
+    distances = [-r["reward_before"] for r in nac_runs(ev, "darwin_balance", "fixes")]
+    shown = ", ".join(f"{d * 100:.1f}" for d in distances)
+    text = (
+        f"CPG alone: mean COP-to-sole-centre distance per run ({shown}) cm, sole "
+        f"half-length {half * 100:.2f} cm"
+    )
+    return v.majority([d < 0.2 * half for d in distances], text + "; below 20 % of it")
+
+
 @rule("CPG-1a")
 def cpg_1a(ev: Evidence) -> v.Verdict:
     fell = [t["fell"] for t in ev.computed("hand_tuned_trials")]
@@ -116,20 +128,17 @@ def cpg_3(ev: Evidence) -> v.Verdict:
 @rule("CPG-5")
 def cpg_5(ev: Evidence) -> v.Verdict:
     raised = ev.computed("cpg")["range_change_when_raised_rad"]
-    bad = []
-    for name, change in raised.items():
-        change = np.array(change)
-        widened = change > 1e-9
-        if not widened.any() or np.any(change[~widened] < -1e-9):
-            bad.append(name)
-    return v.Verdict(
-        v.HOLDS if not bad else v.FAILS,
-        f"amplitudes raised one at a time: {len(raised) - len(bad)} widen only their joints' "
-        f"ranges; not: {bad or 'none'}",
-        ""
-        if not bad
-        else "a joint's primitives add with different phases: raising one can narrow its swing",
+    joints = {name: np.flatnonzero(np.abs(np.array(c)) > 1e-9) for name, c in raised.items()}
+    idle = [name for name, j in joints.items() if not j.size]
+    narrowing = [name for name, c in raised.items() if np.any(np.array(c) < -1e-9)]
+    text = (
+        f"amplitudes raised one at a time: {len(raised) - len(idle)} change their joints' "
+        f"swing ranges, {len(idle)} none ({idle or 'none'}); {len(narrowing)} narrow a range "
+        f"({narrowing or 'none'}: a joint's primitives add with different phases)"
     )
+    if idle:
+        return v.Verdict(v.FAILS, text, "an amplitude moves no joint")
+    return v.Verdict(v.HOLDS, text)
 
 
 @rule("CPG-6")

@@ -125,6 +125,25 @@ def draw(ev: Evidence, out: str) -> str | None:
     return path
 
 
+def _compute_lines(ev: Evidence) -> list[str]:
+    """What the CEM evidence cost: each finished run's wall time from its summary (on the
+    2-core development machine, one thread a run, two runs at a time)."""
+    from analysis.study.evidence import cem_runs
+
+    found = cem_runs(ev.study, ev.protocol)
+    hours = {s: sum(r.summary.get("wall_s", 0.0) for r in rs) / 3600 for s, rs in found.items()}
+    total = sum(hours.values())
+    rows = ", ".join(f"{s} {h:.2f}" for s, h in sorted(hours.items()))
+    return [
+        "## Compute",
+        "",
+        f"The finished CEM runs took {total:.1f} hours of run time by their summaries, one "
+        f"thread a run and two runs at a time ({rows}; K 50: the shipped runs, 2 threads "
+        "each). The rest of the evidence (crawler, computed evidence) takes minutes.",
+        "",
+    ]
+
+
 def write(out: str, claims: list[dict], table: list[dict], ev: Evidence) -> str:
     """Writes `report.md` (and the figure) into `out`; returns the report's path."""
     whole = Counter(c["verdict"] for c in claims if not c["parent"])
@@ -142,7 +161,7 @@ def write(out: str, claims: list[dict], table: list[dict], ev: Evidence) -> str:
     ]
     if figure:
         lines += [f"![CEM cost per round]({FIGURE})", ""]
-    lines += _claims_lines(claims) + _numbers_lines(table)
+    lines += _claims_lines(claims) + _numbers_lines(table) + _compute_lines(ev)
     path = os.path.join(out, "report.md")
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(lines))

@@ -283,6 +283,9 @@ def realtime_configs() -> list[tuple[str, str, dict]]:
     ]
     configs += [("value_iteration", "value_iteration_hold300", {"epsilon": "0:0.9,300:0.9,500:0"})]
     configs += [("value_iteration", "value_iteration_moves5000", {"steps": 5000})]
+    # The learners as the study let them learn, to convergence: 5000 moves, learning on
+    # throughout (α 0.5, the middle of the α grid; the study gives none).
+    configs += [(a, f"{a}_moves5000", {"steps": 5000, "alpha": 0.5}) for a in REALTIME[2:]]
     return configs
 
 

@@ -36,7 +36,7 @@ from absl import flags
 import cpg_suite
 from baselines import cem
 from baselines.tabular import models, planning
-from cpg_suite import cli, cpg, crawler, protocol, trajectories
+from cpg_suite import cli, cpg, crawler, darwin, protocol, trajectories
 from cpg_suite.evaluation import gait
 from cpg_suite.harness import runs
 
@@ -91,11 +91,15 @@ def tokic() -> dict:
             "last_policy_change": _last_change(model, result.history, g),
             "sweeps_to_1e-6": planning.value_iteration(model, g, tol=1e-6).iterations,
         }
-    pi_iterations, pi_same = [], []
+    pi_iterations, pi_one_sweep, pi_same = [], [], []
+    final = vi.values[cycle.states]
     for s in range(PI_SEEDS):
-        rng = np.random.RandomState(s)
-        pi = planning.policy_iteration(model, 0.9, rng, iterations=30)
-        pi_iterations.append(_converge_at(pi.history, cycle.states, vi.values[cycle.states]))
+        pi = planning.policy_iteration(model, 0.9, np.random.RandomState(s), iterations=30)
+        pi_iterations.append(_converge_at(pi.history, cycle.states, final))
+        one = planning.policy_iteration(
+            model, 0.9, np.random.RandomState(s), eval_sweeps=1, iterations=200
+        )
+        pi_one_sweep.append(_converge_at(one.history, cycle.states, final))
         full = planning.policy_iteration(model, 0.9, np.random.RandomState(s))
         pi_same.append(set(planning.policy_cycle(model, full.policy).states) == set(cycle.states))
     two = planning.value_iteration(model, 0.9, sweeps=2).history
@@ -123,6 +127,7 @@ def tokic() -> dict:
             vi.values[cycle.states],
         ),
         "pi_iterations_to_1pct": pi_iterations,
+        "pi_one_sweep_iterations_to_1pct": pi_one_sweep,
         "pi_same_cycle": pi_same,
         "sweep1": two[1].reshape(5, 5).tolist(),
         "sweep2": two[2].reshape(5, 5).tolist(),
@@ -237,6 +242,47 @@ def trial(amplitudes, seed: int = 0) -> dict:
     return gait.evaluate_gait(np.asarray(amplitudes, dtype=np.float64), seed, task_kwargs=kwargs)
 
 
+TOUCH = 1.0  # N on a sole's touch sensor: the foot is down
+LIFT = 8  # control steps (0.13 s) a foot must be up before its next touchdown counts
+
+
+def gait_features(amplitudes, seed: int = 0, steps: int = 1000) -> dict:
+    """One training trial of a gait (version-1 physics), recording its footfalls: the mean
+    step length (at each touchdown, how far ahead of the other foot the landing foot is,
+    m) and the mean interval between the left foot's touchdowns (control steps). A
+    touchdown is a sole's touch sensor rising past `TOUCH` after `LIFT` steps up; the
+    first 100 steps (the start) are left out."""
+    config = cpg.CPGConfig()
+    amplitudes = np.asarray(amplitudes, dtype=np.float64)
+    targets = cpg.trajectories(amplitudes, steps, darwin.CONTROL_TIMESTEP, config)[0]
+    kwargs = {"random": seed, "posture": config.offsets(), "time_limit": float("inf")}
+    env = cpg_suite.load("darwin_walk", task_kwargs={**kwargs, "supply": protocol.supply_limit(1)})
+    physics = env.physics
+    env.reset()
+    up = {"l": 0, "r": 0}
+    lengths, left = [], []
+    for t in range(steps):
+        ts = env.step(physics.targets_to_action(targets[t]))
+        x = {side: float(physics.named.data.xpos[f"foot_{side}"][0]) for side in ("l", "r")}
+        for side, other in (("l", "r"), ("r", "l")):
+            if float(physics.named.data.sensordata[f"touch_{side}"][0]) <= TOUCH:
+                up[side] += 1
+                continue
+            if up[side] >= LIFT and t >= 100:
+                lengths.append(x[side] - x[other])
+                if side == "l":
+                    left.append(t)
+            up[side] = 0
+        if ts.last():
+            break
+    return {
+        "touchdowns": len(lengths),
+        "step_length_m": float(np.mean(lengths)) if lengths else float("nan"),
+        "left_interval_steps": float(np.mean(np.diff(left))) if len(left) > 1 else float("nan"),
+        "fell": bool(ts.last() and t < steps - 1),
+    }
+
+
 def broken(t: dict, keep: float) -> bool:
     """A variant breaks a gait if it falls or keeps less than half its distance."""
     return bool(t["fell"] or t["distance_m"] < 0.5 * keep)
@@ -298,6 +344,12 @@ class EvidenceSettings:
     protocol_runs: str = os.path.join("results", "protocol", "runs")
 
 
+def sole_half_length() -> float:
+    """Half the length of the DARwIn-OP's sole, m: the foot's collision box in the model."""
+    physics = cpg_suite.load("darwin_balance").physics
+    return float(physics.named.model.geom_size["foot_l"][0])
+
+
 def compute(settings: EvidenceSettings) -> dict:
     """Every section of the computed evidence."""
     k10 = learned_gaits(settings.study, settings.protocol_runs, LEARNED)
@@ -307,12 +359,27 @@ def compute(settings: EvidenceSettings) -> dict:
         "table6_3_settings": cem.TABLE6_3,
         "amplitude_names": list(cpg.AMPLITUDE_NAMES),
         "hand_tuned": hand.tolist(),
+        "sole_half_length_m": sole_half_length(),
         "tokic": tokic(),
         "tokic_on_crawler": tokic_on_crawler(),
         "toy": toy(),
         "cpg": cpg_targets(list(k10.values()), list(k50.values())),
         "hand_tuned_trials": [trial(hand, s) for s in range(HAND_SEEDS)],
         "around_" + LEARNED: around_learned(k10),
+        "gait_features": {
+            "hand_tuned": gait_features(hand),
+            **{
+                setting: {str(seed): gait_features(a) for seed, a in gaits.items()}
+                for setting, gaits in (
+                    (LEARNED, k10),
+                    (
+                        "K20_n0.8_e2",
+                        learned_gaits(settings.study, settings.protocol_runs, "K20_n0.8_e2"),
+                    ),
+                    ("K50_n0.8_e2", k50),
+                )
+            },
+        },
     }
 
 
