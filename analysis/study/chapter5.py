@@ -149,3 +149,41 @@ def cpg_6(ev: Evidence) -> v.Verdict:
         v.HOLDS if worst <= SAME_TARGET else v.FAILS,
         f"max |z(t + T) − z(t)| after two cycles: {worst:.2e} rad",
     )
+
+
+def _progress(ev: Evidence, config: str) -> list:
+    """The logged windows (`progress.csv`: θ's norm, max |F|) of a NAC configuration's runs."""
+    import pandas as pd
+
+    nac_runs(ev, "darwin_balance", config)  # five runs or MissingEvidence
+    root = os.path.join(ev.results, *NAC, "darwin_balance")
+    return [pd.read_csv(os.path.join(root, f"{config}_seed{s}", "progress.csv")) for s in range(5)]
+
+
+@rule("NAC-2b")
+def nac_2b(ev: Evidence) -> v.Verdict:
+    flags, shown = [], []
+    for p in _progress(ev, "fixes"):
+        norm = p["theta_norm"].to_numpy()
+        q = len(norm) // 4
+        last = abs(norm[-1] - norm[-q - 1]) / max(abs(norm[-q - 1]), 1e-12)
+        w = max(len(norm) // 10, 1)
+        steady = min(
+            abs(norm[i + w] - norm[i]) / max(abs(norm[i]), 1e-12) for i in range(q, len(norm) - w)
+        )
+        flags.append(last >= 0.05 and steady < 0.05)
+        shown.append(f"{last:.2f}/{steady:.2f}")
+    text = f"|θ|'s change over the last quarter / its steadiest tenth, per seed: {shown}"
+    return v.majority(flags, text)
+
+
+@rule("NAC-4a")
+def nac_4a(ev: Evidence) -> v.Verdict:
+    flags, shown = [], []
+    for p in _progress(ev, "fixes"):
+        f = p["max_abs_F"].to_numpy()
+        q = max(len(f) // 4, 1)
+        first, last = f[1 : q + 1].mean(), f[-q:].mean()  # window 0 is before any update
+        flags.append(last > first)
+        shown.append(f"{first:.3g}→{last:.3g}")
+    return v.majority(flags, f"max |F| per window, first → last quarter: {shown}")
