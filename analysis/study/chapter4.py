@@ -6,7 +6,8 @@ greedy policy breaks ties in a fixed order, so these claims have one outcome, no
 seed (policy iteration's random initial policies excepted). The
 crawler's runs come from `baselines.experiments.crawler_experiments --output_dir=
 results/study/crawler` (a row per run in `crawler_realtime.csv`), the pole's from
-`baselines.experiments.pole_claims` (a row per run in `results/pole/pole_runs.csv`).
+`baselines.experiments.pole_claims --output_dir=results/study/pole` (a row per run in
+`results/study/pole/pole_runs.csv`).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from analysis.study.registry import rule
 
 FORWARD = 0.05  # m over 100 greedy moves: a run walks forward (the experiments' rule)
 CRAWLER = ("study", "crawler", "crawler_realtime.csv")
-POLE = ("pole", "pole_runs.csv")
+POLE = ("study", "pole", "pole_runs.csv")
 LEARNERS = ("value_iteration", "q_learning", "sarsa", "sarsa_lambda", "td0", "td_lambda")
 # Thesis Appendix, Tables A.2 and A.3: V after the first and second sweep (rows 0-4).
 TABLE_A2_A3 = ("CR-N06", "CR-N07")
@@ -777,4 +778,78 @@ def cr_11d(ev: Evidence) -> v.Verdict:
         tokic_policy * length / 100,
         per_cycle(runs(ev, "value_iteration")),
         "per cycle, the Tokic 6-cycle − the real-time cycle on our crawler (m)",
+    )
+
+
+# --- the pole, from its runs' per-step files (pole_claims' per-run columns) ---------------
+
+
+@rule("PB-1b")
+def pb_1b(ev: Evidence) -> v.Verdict:
+    df = pole(ev, "base")
+    flags = list((df["falls"] >= 2) & (df["longest_fallen_spell"] >= 100))
+    spells = df["longest_fallen_spell"].astype(int).tolist()
+    return v.majority(
+        flags, f"≥ 2 falls and a spell of ≥ 100 steps ending in one (longest {spells})"
+    )
+
+
+@rule("PB-4d")
+def pb_4d(ev: Evidence) -> v.Verdict:
+    return v.paired_greater(
+        _col(ev, "bins20", "all_actions_tried_share"),
+        _col(ev, "bins100", "all_actions_tried_share"),
+        "share of tried states with every action tried, 20 − 100 angle bins",
+    )
+
+
+@rule("PB-8b")
+def pb_8b(ev: Evidence) -> v.Verdict:
+    share = _col(ev, "base", "zero_action_share_last")
+    text = f"zero-force share of the last 5000 steps: {[round(float(x), 3) for x in share]}"
+    if sum(share >= 0.1) >= 4:
+        return v.Verdict(v.HOLDS, text)
+    if sum(share < 0.02) >= 4:
+        return v.Verdict(v.FAILS, text, "the learned policy hardly uses the zero force")
+    return v.Verdict(v.INCONCLUSIVE, text, "the seeds split")
+
+
+def _apart(cis: dict) -> bool:
+    """Whether some pair of intervals does not overlap."""
+    keys = list(cis)
+    return any(
+        cis[a][1] < cis[b][0] or cis[b][1] < cis[a][0]
+        for i, a in enumerate(keys)
+        for b in keys[i + 1 :]
+    )
+
+
+@rule("PB-12b")
+def pb_12b(ev: Evidence) -> v.Verdict:
+    early = {c: v.mean_interval(_col(ev, c, "rms_angle_2500_5000"))[1:] for c in ALPHAS}
+    late = {c: v.mean_interval(_col(ev, c, "rms_angle_15000_20000"))[1:] for c in ALPHAS}
+    text = f"α {list(ALPHAS.values())}: intervals apart early {_apart(early)}, late {_apart(late)}"
+    if not _apart(early) and _apart(late):
+        return v.Verdict(v.HOLDS, text)
+    if _apart(early) and not _apart(late):
+        return v.Verdict(v.FAILS, text, "the α values differ early, not late")
+    return v.Verdict(v.INCONCLUSIVE, text, "they differ both early and late, or neither")
+
+
+@rule("PB-14b")
+def pb_14b(ev: Evidence) -> v.Verdict:
+    df = pole(ev, "alpha0.1")
+    ratios = df["quietest_window_ratio"].round(2).tolist()
+    where = df["quietest_window_step"].astype(int).tolist()
+    flags = list(df["quietest_window_ratio"] <= 0.5)
+    return v.majority(
+        flags, f"quietest 1000 steps in 8000-16000 / median window: {ratios} at {where}"
+    )
+
+
+@rule("PB-16c")
+def pb_16c(ev: Evidence) -> v.Verdict:
+    share = _col(ev, "base", "all_actions_tried_share")
+    return v.majority(
+        list(share >= 0.99), f"ε 0: states with every action tried {share.round(3).tolist()}"
     )

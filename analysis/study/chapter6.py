@@ -451,7 +451,7 @@ def _drift(run: CEMRun) -> float:
 
 @rule("CEM-16a")
 def cem_16a(ev: Evidence) -> v.Verdict:
-    settings = [s for s in ev.computed("table6_3_settings") if "lateral" not in s]
+    settings = TABLE + ["K10_n0.2_e2", "K10_n1_e2"]  # the settings the thesis ran
     ratios = [_drift(r) for s in settings for r in ev.cem(s)]
     share = float(np.mean([x >= 0.1 for x in ratios]))
     text = f"unpenalised best trials with |lateral| ≥ 0.1 × distance: {share:.2f} of {len(ratios)}"

@@ -186,8 +186,18 @@ def _action_values(ev: Evidence) -> dict:
 NO_FIGURE = {
     "CR-N11": "the run it was measured over is not given (CR-2: not testable); the Tokic "
     "table's own cycle earns 53 reward units in 6 moves (computed.json)",
-    "PB-N21": "needs the pole's per-step log (PB-14b), which the shipped pole runs do not keep",
 }
+
+
+def _quiet_spell(ev: Evidence) -> dict:
+    steps = chapter4.pole(ev, "alpha0.1")["quietest_window_step"].astype(int).tolist()
+    return {
+        "ours": ", ".join(str(x) for x in steps),
+        "seeds": len(steps),
+        "comparison": "α 0.1: the first step of the quietest 1000-step window in 8000-16000, "
+        "per seed (see PB-14b)",
+    }
+
 
 OURS = {
     **{
@@ -207,6 +217,7 @@ OURS = {
     "DW-N07": _hand_lateral,
     "CR-N08": _action_values,
     "CR-N09": _first_moves,
+    "PB-N21": _quiet_spell,
     **chapter4.NUMBERS,
 }
 

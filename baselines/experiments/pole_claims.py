@@ -202,7 +202,53 @@ def run_row(config: Config, settings: TabularSettings, run_dir: str, summary: di
         "rms_angle_second_half": float(np.sqrt(np.mean(angles[half:] ** 2))),
         "toward_fall_fraction": _toward_fall_fraction(run_dir, forces),
         "q_table_abs_max": float(np.abs(np.load(os.path.join(run_dir, "q_table.npy"))).max()),
+        **_from_steps(run_dir, settings, episodes, angles, forces),
     }
+
+
+def _window_rms(angles: np.ndarray, start: int, stop: int, width: int = 1000) -> np.ndarray:
+    """The rms angle of each `width`-step window in [start, stop)."""
+    return np.array(
+        [
+            np.sqrt(np.mean(angles[i : i + width] ** 2))
+            for i in range(start, stop - width + 1, width)
+        ]
+    )
+
+
+def _from_steps(run_dir, settings, episodes: pd.DataFrame, angles: np.ndarray, forces) -> dict:
+    """Measures from the run's per-step files: the longest spell that ended in a fall, the
+    zero-force action's share of the last 5000 steps, the rms angle early (steps
+    2500-5000) and late (15000-20000), the quietest 1000-step window in steps 8000-16000
+    against the median window of steps 5000-20000 and where it lies, and the share of the
+    states tried at all whose every action was tried (a tried action leaves a non-zero Q,
+    the rewards being negative)."""
+    fallen = episodes.loc[episodes["fell"] == 1, "length"]
+    actions = np.load(os.path.join(run_dir, "actions.npy"))
+    q = np.load(os.path.join(run_dir, "q_table.npy")).reshape(-1, len(forces))
+    tried = np.abs(q) > 0
+    any_tried = tried.any(axis=1)
+    zero = int(np.flatnonzero(forces == 0.0)[0]) if 0.0 in forces else -1
+    out = {
+        "longest_fallen_spell": int(fallen.max()) if len(fallen) else 0,
+        "zero_action_share_last": float(np.mean(actions[-LAST:] == zero)) if zero >= 0 else 0.0,
+        "rms_angle_2500_5000": float(np.sqrt(np.mean(angles[2500:5000] ** 2))),
+        "rms_angle_15000_20000": float(np.sqrt(np.mean(angles[15000:20000] ** 2)))
+        if len(angles) >= 20000
+        else float("nan"),
+        "all_actions_tried_share": float(tried[any_tried].all(axis=1).mean())
+        if any_tried.any()
+        else float("nan"),
+    }
+    if len(angles) >= 20000:
+        quiet = _window_rms(angles, 8000, 16000)
+        out["quietest_window_ratio"] = float(
+            quiet.min() / np.median(_window_rms(angles, 5000, 20000))
+        )
+        out["quietest_window_step"] = int(8000 + 1000 * np.argmin(quiet))
+    else:
+        out["quietest_window_ratio"], out["quietest_window_step"] = float("nan"), -1
+    return out
 
 
 def aggregate(per_run: pd.DataFrame) -> pd.DataFrame:
