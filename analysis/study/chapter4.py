@@ -279,11 +279,7 @@ def cr_13a(ev: Evidence) -> v.Verdict:
         config = tuned(ev, a)
         flags = list(runs(ev, config)["last_moves_m"] > FORWARD)
         parts.append(v.majority(flags, f"{config}: last 100 moves > 5 cm"))
-    return v.Verdict(
-        v.all_of(parts),
-        "; ".join(p.evidence for p in parts),
-        "; ".join(p.why for p in parts if p.why),
-    )
+    return v.joined(parts)
 
 
 def _last(ev: Evidence, a: str) -> np.ndarray:
@@ -298,11 +294,7 @@ def cr_14a(ev: Evidence) -> v.Verdict:
     for a in ("q_learning", "sarsa", "sarsa_lambda"):
         mean, low, high = v.mean_interval(_last(ev, a) / vi.mean())
         parts.append(v.within(low, high, -np.inf, 0.5, f"{a} / VI {mean:.2f}"))
-    return v.Verdict(
-        v.all_of(parts),
-        "; ".join(p.evidence for p in parts),
-        "; ".join(p.why for p in parts if p.why),
-    )
+    return v.joined(parts)
 
 
 @rule("CR-14b")
@@ -313,11 +305,7 @@ def cr_14b(ev: Evidence) -> v.Verdict:
         v.greater(_last(ev, hi), _last(ev, lo), f"{hi} − {lo} (m, last 100 moves)")
         for hi, lo in zip(ladder, ladder[1:])
     ]
-    return v.Verdict(
-        v.all_of(parts),
-        "; ".join(p.evidence for p in parts),
-        "; ".join(p.why for p in parts if p.why),
-    )
+    return v.joined(parts)
 
 
 @rule("CR-16a")
@@ -332,11 +320,7 @@ def cr_17(ev: Evidence) -> v.Verdict:
         v.majority(forward(runs(ev, "value_iteration")), "crawler, γ 0.9: forward"),
         v.majority(list(pole(ev, "base")["balanced"]), "pole, γ 0.9: balanced"),
     ]
-    return v.Verdict(
-        v.all_of(parts),
-        "; ".join(p.evidence for p in parts),
-        "; ".join(p.why for p in parts if p.why),
-    )
+    return v.joined(parts)
 
 
 # --- the pole -----------------------------------------------------------------------------
@@ -360,11 +344,7 @@ def _balance(ev: Evidence, configs: list[str], want: bool) -> v.Verdict:
         )
         for c in configs
     ]
-    return v.Verdict(
-        v.all_of(parts),
-        "; ".join(p.evidence for p in parts),
-        "; ".join(p.why for p in parts if p.why),
-    )
+    return v.joined(parts)
 
 
 def _col(ev: Evidence, config: str, column: str) -> np.ndarray:
@@ -506,11 +486,7 @@ def pb_13b(ev: Evidence) -> v.Verdict:
         for c in ALPHAS
         if c != "base"
     ]
-    return v.Verdict(
-        v.all_of(parts),
-        "; ".join(p.evidence for p in parts),
-        "; ".join(p.why for p in parts if p.why),
-    )
+    return v.joined(parts)
 
 
 @rule("PB-14a")
@@ -535,11 +511,7 @@ def pb_15a(ev: Evidence) -> v.Verdict:
         )
         for c in ("alpha0.5", "alpha1")
     ]
-    return v.Verdict(
-        v.all_of(parts),
-        "; ".join(p.evidence for p in parts),
-        "; ".join(p.why for p in parts if p.why),
-    )
+    return v.joined(parts)
 
 
 @rule("PB-15b")
@@ -661,11 +633,7 @@ def cr_8c(ev: Evidence) -> v.Verdict:
         )
         for e in CONSTANT_EPSILONS
     ]
-    return v.Verdict(
-        v.all_of(parts),
-        "; ".join(p.evidence for p in parts),
-        "; ".join(p.why for p in parts if p.why),
-    )
+    return v.joined(parts)
 
 
 @rule("CR-9a")

@@ -161,7 +161,7 @@ def cemt_3b(ev: Evidence) -> v.Verdict:
 
 @rule("CEMT-3c")
 def cemt_3c(ev: Evidence) -> v.Verdict:
-    return _joined(
+    return v.joined(
         [
             v.paired_greater(toy(ev, 0.8), toy(ev, 0.2), "final error, noise 0.8 − 0.2"),
             v.paired_greater(toy(ev, 2.0), toy(ev, 0.8), "final error, noise 2.0 − 0.8"),
@@ -192,7 +192,7 @@ def cem_1(ev: Evidence) -> v.Verdict:
         v.majority(values(ev, s, lambda r: r.progress["sigma"].min() < COLLAPSED), f"{s} σ → 0")
         for s in NO_NOISE
     ]
-    return _joined(parts)
+    return v.joined(parts)
 
 
 @rule("CEM-2a")
@@ -218,7 +218,7 @@ def _noise_beats_none(ev: Evidence) -> v.Verdict:
         above(ev, f"K10_n0.8_e{e}", f"K10_n0_e{e}", best, f"elite {e}: D(0.8) − D(0)")
         for e in (1, 2, 3, 4)
     ]
-    return _joined(parts)
+    return v.joined(parts)
 
 
 rule("CEM-3")(_noise_beats_none)
@@ -231,7 +231,7 @@ def _elite_two_best(ev: Evidence, settings: list[str]) -> v.Verdict:
     runner_up = max((s for s in settings if s != settings[1]), key=means.get)
     top = max(means, key=means.get) == settings[1]
     if any(p.verdict == v.FAILS for p in parts):
-        return _joined(parts)
+        return v.joined(parts)
     to_next = above(ev, settings[1], runner_up, best, f"D({settings[1]}) − D({runner_up})")
     verdict = v.HOLDS if top and to_next.verdict == v.HOLDS else v.INCONCLUSIVE
     return v.Verdict(verdict, "; ".join(p.evidence for p in parts), to_next.why)
@@ -239,7 +239,7 @@ def _elite_two_best(ev: Evidence, settings: list[str]) -> v.Verdict:
 
 @rule("CEM-4")
 def cem_4(ev: Evidence) -> v.Verdict:
-    return _joined([_elite_two_best(ev, NO_NOISE), _elite_two_best(ev, NOISE)])
+    return v.joined([_elite_two_best(ev, NO_NOISE), _elite_two_best(ev, NOISE)])
 
 
 @rule("CEM-5")
@@ -249,14 +249,14 @@ def cem_5(ev: Evidence) -> v.Verdict:
         x, y = paired(ev, settings[3], settings[0], best)
         tolerance = SIMILAR * abs(np.mean(x + y))
         parts.append(v.paired_similar(x, y, f"D({settings[3]}) − D({settings[0]})", tolerance))
-    return _joined(parts)
+    return v.joined(parts)
 
 
 @rule("CEM-6a")
 def cem_6a(ev: Evidence) -> v.Verdict:
     settings = NO_NOISE[2:] + NOISE[2:]
     parts = [v.majority(values(ev, s, lambda r: longest_fall_streak(r) >= 2), s) for s in settings]
-    return _joined(parts, "two or more rounds running with the mean fallen")
+    return v.joined(parts, "two or more rounds running with the mean fallen")
 
 
 def _share_pair(ev: Evidence, settings: list[str], elites: tuple[int, int]) -> list[float]:
@@ -275,7 +275,7 @@ def cem_6b(ev: Evidence) -> v.Verdict:
         )
         for settings in (NO_NOISE, NOISE)
     ]
-    return _joined(parts)
+    return v.joined(parts)
 
 
 @rule("CEM-6c")
@@ -287,7 +287,7 @@ def cem_6c(ev: Evidence) -> v.Verdict:
         above(ev, NO_NOISE[e], NO_NOISE[e - 1], early_sigma, f"σ rounds 1-5, e{e + 1} − e{e}")
         for e in (1, 2, 3)
     ]
-    return _joined(parts)
+    return v.joined(parts)
 
 
 @rule("CEM-7a")
@@ -334,12 +334,12 @@ def cem_8e(ev: Evidence) -> v.Verdict:
         above(ev, hi, lo, from_hand, f"|final mean − hand-tuned|, {hi} − {lo}")
         for lo, hi in zip(ladder, ladder[1:])
     ]
-    return _joined(parts)
+    return v.joined(parts)
 
 
 @rule("CEM-9a")
 def cem_9a(ev: Evidence) -> v.Verdict:
-    return _joined(
+    return v.joined(
         [
             above(ev, "K20_n0.8_e2", "K10_n0.8_e2", best, "D(K20) − D(K10)"),
             above(ev, "K50_n0.8_e2", "K20_n0.8_e2", best, "D(K50) − D(K20)"),
@@ -399,7 +399,7 @@ def cem_10b(ev: Evidence) -> v.Verdict:
             for s in seeds
         ]
         parts.append(v.paired_greater(gain, [0.0] * len(gain), f"g(K {k})"))
-    return _joined(parts)
+    return v.joined(parts)
 
 
 @rule("CEM-11")
@@ -549,7 +549,7 @@ def cem_20(ev: Evidence) -> v.Verdict:
         some = v.majority([0 < x <= 0.5 for x in shares], f"{s}: 0 < fall share ≤ 0.5")
         most = sum(x > 0.5 for x in shares) >= 0.8 * len(shares)
         parts.append(v.Verdict(v.FAILS, some.evidence, "most rounds fall") if most else some)
-    return _joined(parts)
+    return v.joined(parts)
 
 
 @rule("CEM-21")
@@ -571,19 +571,11 @@ def cem_23(ev: Evidence) -> v.Verdict:
         for settings in (NO_NOISE, NOISE)
         for o in (0, 3)
     ]
-    return _joined(parts)
+    return v.joined(parts)
 
 
 def _list(x, fmt: str = ".3f") -> str:
     return "[" + ", ".join(format(float(a), fmt) for a in x) + "]"
-
-
-def _joined(parts: list[v.Verdict], label: str = "") -> v.Verdict:
-    """One verdict from the comparisons of one criterion (`verdicts.all_of`)."""
-    verdict = v.all_of(parts)
-    why = "; ".join(p.why for p in parts if p.why and p.verdict != v.HOLDS)
-    text = "; ".join(p.evidence for p in parts)
-    return v.Verdict(verdict, f"{label}: {text}" if label else text, why)
 
 
 def _features(ev: Evidence, setting: str) -> list[dict]:
@@ -611,7 +603,7 @@ def cem_15a(ev: Evidence) -> v.Verdict:
         parts.append(
             v.paired_greater(steps, [hand] * len(steps), f"step, {setting} − hand-tuned (m)")
         )
-    return _joined(parts)
+    return v.joined(parts)
 
 
 @rule("CEM-15b")

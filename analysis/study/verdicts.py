@@ -63,16 +63,21 @@ def difference_interval(a: Sequence[float], b: Sequence[float]) -> tuple[float, 
     return float(x.mean() - y.mean()), float(low), float(high)
 
 
+def _above_zero(text: str, low: float, high: float) -> Verdict:
+    """Holds if [low, high] lies above 0, fails if below, else inconclusive."""
+    if low > 0:
+        return Verdict(HOLDS, text)
+    if high < 0:
+        return Verdict(FAILS, text, "the reverse in our runs")
+    return Verdict(INCONCLUSIVE, text, "the interval contains 0")
+
+
 def greater(a: Sequence[float], b: Sequence[float], label: str) -> Verdict:
     """Holds if the interval of mean(a) − mean(b) lies above 0, fails if below, else
     inconclusive."""
     d, low, high = difference_interval(a, b)
     text = f"{label}: difference {d:+.4g} [{low:+.4g}, {high:+.4g}] (n = {len(a)}, {len(b)})"
-    if low > 0:
-        return Verdict(HOLDS, text)
-    if high < 0:
-        return Verdict(FAILS, text, "the ordering is the reverse in our runs")
-    return Verdict(INCONCLUSIVE, text, "the interval contains 0")
+    return _above_zero(text, low, high)
 
 
 def not_greater(a: Sequence[float], b: Sequence[float], label: str) -> Verdict:
@@ -151,12 +156,7 @@ def paired_greater(a: Sequence[float], b: Sequence[float], label: str) -> Verdic
     """Holds if the interval of the mean paired difference a − b lies above 0, fails if
     below, else inconclusive."""
     d, low, high = paired_interval(a, b)
-    text = f"{label}: {d:+.4g} [{low:+.4g}, {high:+.4g}] (n = {len(a)})"
-    if low > 0:
-        return Verdict(HOLDS, text)
-    if high < 0:
-        return Verdict(FAILS, text, "the reverse in our runs")
-    return Verdict(INCONCLUSIVE, text, "the interval contains 0")
+    return _above_zero(f"{label}: {d:+.4g} [{low:+.4g}, {high:+.4g}] (n = {len(a)})", low, high)
 
 
 def paired_similar(a: Sequence[float], b: Sequence[float], label: str, tolerance: float) -> Verdict:
@@ -180,3 +180,11 @@ def within(low: float, high: float, lo: float, hi: float, label: str) -> Verdict
     if high < lo or low > hi:
         return Verdict(FAILS, text, "outside the stated range in our runs")
     return Verdict(INCONCLUSIVE, text, "the interval reaches past the stated range")
+
+
+def joined(parts: Sequence[Verdict], label: str = "") -> Verdict:
+    """One verdict from the comparisons of one criterion (`all_of`), their evidence and
+    reasons joined."""
+    why = "; ".join(p.why for p in parts if p.why and p.verdict != HOLDS)
+    text = "; ".join(p.evidence for p in parts)
+    return Verdict(all_of(parts), f"{label}: {text}" if label else text, why)
