@@ -821,3 +821,15 @@ def pb_16c(ev: Evidence) -> v.Verdict:
     return v.majority(
         list(share >= 0.99), f"ε 0: states with every action tried {share.round(3).tolist()}"
     )
+
+
+@rule("CR-13c")
+def cr_13c(ev: Evidence) -> v.Verdict:
+    vi, q = runs(ev, tuned(ev, "value_iteration")), runs(ev, tuned(ev, "q_learning"))
+    early = vi["rms_first20"].to_numpy() > q["rms_first20"].to_numpy()
+    caught = vi["rms_at_300"].to_numpy() <= 1.1 * q["rms_at_300"].to_numpy()
+    text = (
+        f"VI's RMS error above Q-learning's over moves 1-20 in {int(early.sum())} seeds, within "
+        f"1.1 × of it at move 300 in {int(caught.sum())}"
+    )
+    return v.majority(list(early & caught), text)

@@ -187,3 +187,29 @@ def nac_4a(ev: Evidence) -> v.Verdict:
         flags.append(last > first)
         shown.append(f"{first:.3g}→{last:.3g}")
     return v.majority(flags, f"max |F| per window, first → last quarter: {shown}")
+
+
+@rule("CPG-8")
+def cpg_8(ev: Evidence) -> v.Verdict:
+    found = ev.computed("raised_amplitudes")
+    hand = found["hand_tuned"]
+    parts = []
+    for name, feature in (
+        ("compass_hip", "step_length_m"),
+        ("knee", "swing_height_m"),
+        ("balancing_hip", "sway_m"),
+    ):
+        raised = found[name]
+        fell = sum(t["fell"] for t in raised)
+        pairs = [(a[feature], b[feature]) for a, b in zip(raised, hand)]
+        pairs = [(a, b) for a, b in pairs if np.isfinite(a) and np.isfinite(b)]
+        label = f"{feature}, {name} raised − hand-tuned ({fell} falls)"
+        if len(pairs) < len(hand):
+            text = f"{label}: {len(hand) - len(pairs)} trials without a measure (no touchdown)"
+            parts.append(v.Verdict(v.INCONCLUSIVE, text, "trials without a footfall"))
+            continue
+        verdict = v.paired_greater([a for a, _ in pairs], [b for _, b in pairs], label)
+        if fell and verdict.verdict == v.HOLDS:
+            verdict = v.Verdict(v.INCONCLUSIVE, verdict.evidence, "a raised gait fell")
+        parts.append(verdict)
+    return v.joined(parts)

@@ -101,7 +101,8 @@ def _crawler_run(output_dir, algo, name, seed, resume, **overrides) -> dict:
 def _from_run_files(run_dir: str) -> dict:
     """What the per-run table takes from a run's files beyond its summary: the displacement
     of the last `LAST` moves, the RMS error's area (Σ_t RMS_t / (T · RMS_0), thesis
-    Fig. 4.6's convergence as one number) and its mean over the first 20 moves, and the
+    Fig. 4.6's convergence as one number), its mean over the first 20 moves and its value
+    at move 300 (where ε reaches 0), and the
     rank correlation of the learned rewards with Tokic's table over the transitions both
     have (thesis Table 4.2 against Table 4.1)."""
     progress = pd.read_csv(os.path.join(run_dir, "progress.csv"))
@@ -118,6 +119,7 @@ def _from_run_files(run_dir: str) -> dict:
         "last_moves_m": float(progress["reward_m"].to_numpy()[-LAST:].sum()),
         "rms_area": float(rms.sum() / (len(rms) * rms[0])) if rms[0] > 0 else float("nan"),
         "rms_first20": float(rms[:20].mean()),
+        "rms_at_300": float(rms[min(299, len(rms) - 1)]),
         "tokic_rank_correlation": rho,
     }
 
@@ -256,6 +258,7 @@ REALTIME_COLUMNS = (
     "last_moves_m",
     "rms_area",
     "rms_first20",
+    "rms_at_300",
     "tokic_rank_correlation",
 )
 

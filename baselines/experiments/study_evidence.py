@@ -249,9 +249,11 @@ LIFT = 8  # control steps (0.13 s) a foot must be up before its next touchdown c
 def gait_features(amplitudes, seed: int = 0, steps: int = 1000) -> dict:
     """One training trial of a gait (version-1 physics), recording its footfalls: the mean
     step length (at each touchdown, how far ahead of the other foot the landing foot is,
-    m) and the mean interval between the left foot's touchdowns (control steps). A
-    touchdown is a sole's touch sensor rising past `TOUCH` after `LIFT` steps up; the
-    first 100 steps (the start) are left out."""
+    m), the mean interval between the left foot's touchdowns (control steps), the swing
+    foot's height (95th percentile of the feet's height difference, m) and the hips' sway
+    (peak to peak of the torso's lateral position less its linear drift, m). A touchdown
+    is a sole's touch sensor rising past `TOUCH` after `LIFT` steps up; the first 100
+    steps (the start) are left out."""
     config = cpg.CPGConfig()
     amplitudes = np.asarray(amplitudes, dtype=np.float64)
     targets = cpg.trajectories(amplitudes, steps, darwin.CONTROL_TIMESTEP, config)[0]
@@ -260,10 +262,14 @@ def gait_features(amplitudes, seed: int = 0, steps: int = 1000) -> dict:
     physics = env.physics
     env.reset()
     up = {"l": 0, "r": 0}
-    lengths, left = [], []
+    lengths, left, lift, sway = [], [], [], []
     for t in range(steps):
         ts = env.step(physics.targets_to_action(targets[t]))
         x = {side: float(physics.named.data.xpos[f"foot_{side}"][0]) for side in ("l", "r")}
+        if t >= 100:
+            z = physics.named.data.xpos[["foot_l", "foot_r"], 2]
+            lift.append(float(abs(z[0] - z[1])))
+            sway.append(float(physics.torso_position()[1]))
         for side, other in (("l", "r"), ("r", "l")):
             if float(physics.named.data.sensordata[f"touch_{side}"][0]) <= TOUCH:
                 up[side] += 1
@@ -275,9 +281,14 @@ def gait_features(amplitudes, seed: int = 0, steps: int = 1000) -> dict:
             up[side] = 0
         if ts.last():
             break
+    sway = np.array(sway) - np.polyval(
+        np.polyfit(np.arange(len(sway)), sway, 1), np.arange(len(sway))
+    )
     return {
         "touchdowns": len(lengths),
         "step_length_m": float(np.mean(lengths)) if lengths else float("nan"),
+        "swing_height_m": float(np.percentile(lift, 95)),
+        "sway_m": float(np.ptp(sway)),
         "left_interval_steps": float(np.mean(np.diff(left))) if len(left) > 1 else float("nan"),
         "fell": bool(ts.last() and t < steps - 1),
     }
@@ -350,6 +361,22 @@ def sole_half_length() -> float:
     return float(physics.named.model.geom_size["foot_l"][0])
 
 
+# CPG-8: one amplitude raised at a time (thesis Sec. 6.2 names what each sets).
+RAISED = {"compass_hip": 10.0, "knee": 50.0, "balancing_hip": 16.0}
+
+
+def raised_features(seeds: int = 5) -> dict:
+    """The hand-tuned gait's footfalls and those with one amplitude of `RAISED` raised,
+    per initial-state seed."""
+    hand = np.asarray(cpg.PRESETS["hand_tuned"], dtype=np.float64)
+    out = {"hand_tuned": [gait_features(hand, s) for s in range(seeds)]}
+    for name, value in RAISED.items():
+        raised = hand.copy()
+        raised[cpg.AMPLITUDE_NAMES.index(name)] = value
+        out[name] = [gait_features(raised, s) for s in range(seeds)]
+    return out
+
+
 def compute(settings: EvidenceSettings) -> dict:
     """Every section of the computed evidence."""
     k10 = learned_gaits(settings.study, settings.protocol_runs, LEARNED)
@@ -366,6 +393,7 @@ def compute(settings: EvidenceSettings) -> dict:
         "cpg": cpg_targets(list(k10.values()), list(k50.values())),
         "hand_tuned_trials": [trial(hand, s) for s in range(HAND_SEEDS)],
         "around_" + LEARNED: around_learned(k10),
+        "raised_amplitudes": raised_features(),
         "gait_features": {
             "hand_tuned": gait_features(hand),
             **{
