@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # The GPU measurements of the Warp backend and the training physics, as one device call.
 #
-#   bash results/mjx/gpu_warp_check.sh OUT_DIR
+#   bash benchmarks/gpu_warp_check.sh OUT_DIR
 #
 # Written for a lent NVIDIA GPU (15 minutes of device time: each step below has its own
 # timeout, so that what finished comes back), after the packages it lacks are installed
-# (results/mjx/gpu_wheels.sh says how they travel). It writes into OUT_DIR:
+# (benchmarks/gpu_wheels.sh says how they travel). It writes into OUT_DIR:
 #   bench_mjx.log  control steps/s of both backends and both physics at 1,024, 8,192 and
 #                  32,768 robots beside the 2-thread CPU vector env, same run, and PPO's
 #                  env steps/s while training on 8,192 robots (benchmarks/bench_mjx.py);

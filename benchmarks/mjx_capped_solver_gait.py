@@ -1,16 +1,17 @@
 """The hand-tuned gait in MJX with the model's solver and capped ones: distance and falls.
 
 The script that produced h100_capped_solver_gait.log (run from the repository root as
-`python results/mjx/h100_capped_solver_gait.py 512 1000`): B robots of `darwin_walk`, each
+`python benchmarks/mjx_capped_solver_gait.py 512 1000`): B robots of `darwin_walk`, each
 with its own reset draw, T control steps of the hand-tuned gait's actions; distance is the
 summed reward (torso travel, m) until a fall. (On the H100 the caps were set by a helper
 since replaced by `WalkEnv(solver_iterations=...)`, which sets the same two fields.)
 """
 
+import os
 import sys
 import time
 
-sys.path.insert(0, "benchmarks")
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import bench_mjx
 import jax

@@ -5,9 +5,10 @@ steps are now `python benchmarks/bench_mjx.py --batches=8192 --steps=50 --iterat
 --ls_iterations=N`.
 """
 
+import os
 import sys
 
-sys.path.insert(0, "benchmarks")
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import bench_mjx
 import jax

@@ -1,6 +1,6 @@
 """Runs trained without the supply limit beside the same seeds trained under it.
 
-    python results/protocol/limit_check/compare.py
+    python benchmarks/limit_check.py
 
 For each run here (trained under benchmark version 1 with the code of commit 165bf9d), and
 its namesake in `results/protocol/runs/` (trained under version 2): whether every round of
@@ -13,8 +13,9 @@ import csv
 import json
 import os
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-RUNS = os.path.join(os.path.dirname(HERE), "runs")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # the repository
+HERE = os.path.join(ROOT, "results", "protocol", "limit_check")  # the runs it compares
+RUNS = os.path.join(ROOT, "results", "protocol", "runs")
 TIMINGS = ("steps_per_s", "wall_s")
 
 

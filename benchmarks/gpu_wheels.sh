@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The Python packages the lent GPU machine lacks, as wheel pieces small enough to travel.
 #
-#   bash results/mjx/gpu_wheels.sh          # here, in the repository root, once
+#   bash benchmarks/gpu_wheels.sh          # here, in the repository root, once
 #
 # The GPU machine's image has JAX 0.11.2 (CUDA 13), Flax, Optax and NumPy but not MuJoCo,
 # MJX, Warp, Brax, dm_control or Gymnasium, and it cannot download them. The wheels for its
@@ -15,7 +15,7 @@
 #   cat .gpu_wheels/p*/part_* | tar -x -C /tmp && python3 -m pip install -q --no-index \
 #     --no-deps --target /tmp/site /tmp/gpu_wheels/*.whl && export PYTHONPATH=/tmp/site:$PWD
 #
-# then runs `bash results/mjx/gpu_warp_check.sh $OUT`.
+# then runs `bash benchmarks/gpu_warp_check.sh $OUT`.
 set -euo pipefail
 grep -qxF '/.gpu_wheels/' .git/info/exclude 2>/dev/null || echo '/.gpu_wheels/' >>.git/info/exclude
 rm -rf .gpu_wheels /tmp/gpu_wheels && mkdir -p .gpu_wheels /tmp/gpu_wheels

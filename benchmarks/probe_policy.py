@@ -1,6 +1,6 @@
 """How a PPO `joints` policy's episodes end under the supply limit: falls or brown-outs.
 
-    python results/protocol/ppo_joints_under_limit/probe.py [POLICY_DIR ...]
+    python benchmarks/probe_policy.py [POLICY_DIR ...]
 
 For each folder (default: `joints_seed0_final` here), its final policy walks 8 robots of
 `darwin_walk` (seeds 100-107, neither validation nor test seeds) for up to 16 s under
@@ -32,8 +32,9 @@ from stable_baselines3 import PPO
 from cpg_suite import darwin, protocol, vector
 from cpg_suite.harness import exported, sb3
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-SHIPPED = os.path.join(os.path.dirname(HERE), "runs", "ppo", "darwin_walk")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # the repository
+HERE = os.path.join(ROOT, "results", "protocol", "ppo_joints_under_limit")  # its data
+SHIPPED = os.path.join(ROOT, "results", "protocol", "runs", "ppo", "darwin_walk")
 MJX_POLICY = "final_policy.npz"  # PPO on MJX's last parameters (`export_policy`)
 SEEDS = range(100, 108)  # a choice: seeds that neither validation nor the test uses
 GAMMAS = (0.99, 0.999)

@@ -1,6 +1,6 @@
 """The table of results/mjx/README.md#the-training-physics, from the agreement log.
 
-    python results/mjx/agreement_table.py [results/mjx/cpu_agreement_training_physics.log]
+    python benchmarks/mjx_agreement_table.py [results/mjx/cpu_agreement_training_physics.log]
 
 The log holds `benchmarks/mjx_agreement.py`'s output for each physics and gait, each run
 under a line `== <physics name> <gait> <flags>` (the JSON line per seed that the script

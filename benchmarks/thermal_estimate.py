@@ -14,9 +14,9 @@ inside the evaluator (`evaluation.closed_loop`), not through a policy.
 The table (`summary`) gives per configuration the minutes to the winding's limit with the
 copper's temperature coefficient and without it (α = 0), from the trials' mean losses.
 
-    python results/thermal/estimate.py                   # every run, 5 nominal seeds each
-    python results/thermal/estimate.py --seeds=2 --runs=ppo/darwin_walk
-    python results/thermal/estimate.py --summary          # the table of the kept trials.csv
+    python benchmarks/thermal_estimate.py                   # every run, 5 nominal seeds each
+    python benchmarks/thermal_estimate.py --seeds=2 --runs=ppo/darwin_walk
+    python benchmarks/thermal_estimate.py --summary          # the table of the kept trials.csv
 
 Writes `trials.csv` (a row per trial and motor) beside this file, or under --out.
 """
@@ -35,7 +35,8 @@ from absl import app, flags
 from cpg_suite import electrical, protocol, thermal
 from cpg_suite.protocol import score, verify
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # the repository
+HERE = os.path.join(ROOT, "results", "thermal")  # where its table goes
 EXTRAPOLATION = 2 * 3600  # s: how long the gait is taken to go on
 FIELDS = (
     "run", "seed", "distance_m", "failed", "motor", "hottest_servo", "mean_loss_w",

@@ -1,6 +1,6 @@
 """The shipped runs' test cards at a git revision beside the cards in the working tree.
 
-    python results/protocol/compare_cards.py --before=REV
+    python benchmarks/compare_cards.py --before=REV
 
 prints a Markdown table, one row per shipped run whose card or trials differ: the all-tier
 success-weighted distance with its 95 % interval and the falls per tier (of the trials per
@@ -18,7 +18,7 @@ import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # the repository
 RUNS = os.path.join("results", "protocol", "runs")
 TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
 
