@@ -99,6 +99,10 @@ class StudySettings:
         cli.require(not unknown, f"unknown --settings {unknown}; valid: {', '.join(ORDER)}")
         cli.require_integer("seeds", self.seeds, 1)
         cli.require_integer("jobs", self.jobs, 1)
+        cli.require(
+            not self.reuse or os.path.isdir(self.reuse),
+            f"--reuse={self.reuse}: not a folder of shipped runs (--reuse= for none)",
+        )
 
 
 def queue(settings: StudySettings) -> list[tuple[str, int]]:

@@ -354,6 +354,11 @@ class EvidenceSettings:
     study: str = os.path.join("results", "study", "runs")
     protocol_runs: str = os.path.join("results", "protocol", "runs")
 
+    def __post_init__(self):
+        for flag in ("study", "protocol_runs"):
+            path = getattr(self, flag)
+            cli.require(os.path.isdir(path), f"--{flag}={path}: not a folder of runs")
+
 
 def sole_half_length() -> float:
     """Half the length of the DARwIn-OP's sole, m: the foot's collision box in the model."""
