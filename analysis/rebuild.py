@@ -70,10 +70,12 @@ def readme_with_table(readme: str, table: str) -> str:
     return f"{head}\n{table}{readme[end:]}"
 
 
-def rebuild(results_board: str = BOARD, readme: str = README, study: str = build.OUT) -> list[str]:
+def rebuild(
+    results_board: str = BOARD, readme: str = README, study: str = build.OUT, runs: str = RUNS
+) -> list[str]:
     """Writes every derived file in place; returns one line per part."""
-    names = board_files(results_board)
-    board_figures(results_board)
+    names = board_files(results_board, runs)
+    board_figures(results_board, runs)
     table = board_table.markdown(os.path.join(results_board, "darwin_leaderboard.csv"))
     with open(readme, encoding="utf-8") as f:
         text = readme_with_table(f.read(), table)
@@ -86,11 +88,13 @@ def rebuild(results_board: str = BOARD, readme: str = README, study: str = build
     ]
 
 
-def check(results_board: str = BOARD, readme: str = README, study: str = build.OUT) -> list[str]:
+def check(
+    results_board: str = BOARD, readme: str = README, study: str = build.OUT, runs: str = RUNS
+) -> list[str]:
     """The tracked derived files that differ from a rebuild (empty: none)."""
     differ = []
     with tempfile.TemporaryDirectory() as scratch:
-        for name in board_files(scratch):
+        for name in board_files(scratch, runs):
             if not filecmp.cmp(
                 os.path.join(scratch, name), os.path.join(results_board, name), shallow=False
             ):
@@ -111,16 +115,19 @@ def check(results_board: str = BOARD, readme: str = README, study: str = build.O
 
 def main(argv: list[str]) -> None:
     del argv
+    runs = flags.FLAGS.runs
+    cli.check(os.path.isdir(runs), f"--runs={runs}: not a folder of shipped runs")
     if flags.FLAGS.check:
-        differ = check()
+        differ = check(runs=runs)
         if differ:
             sys.stderr.write("error: differ from their rebuild: " + ", ".join(differ) + "\n")
             raise SystemExit(1)
         print("every derived file under results/ and the README's board equal their rebuild")
         return
-    print("\n".join(rebuild()))
+    print("\n".join(rebuild(runs=runs)))
 
 
 if __name__ == "__main__":
     flags.DEFINE_bool("check", False, "Compare with a rebuild instead of writing.")
+    flags.DEFINE_string("runs", RUNS, "The board's shipped runs.")
     cli.run(main)

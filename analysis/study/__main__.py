@@ -7,15 +7,21 @@ if __name__ == "__main__":  # this program never renders a scene: no OpenGL back
 
     cli.without_rendering()
 
+import os
+
 from absl import flags
 
 from analysis.study import build
+from analysis.study.evidence import Evidence
 from cpg_suite import cli
 
 
 def main(argv: list[str]) -> None:
     del argv
-    print(build.build(flags.FLAGS.out))
+    ev = Evidence()
+    for path in (ev.study, ev.protocol):
+        cli.check(os.path.isdir(path), f"{path} not found: run from the repository's root")
+    print(build.build(flags.FLAGS.out, ev))
 
 
 if __name__ == "__main__":

@@ -99,10 +99,6 @@ class StudySettings:
         cli.require(not unknown, f"unknown --settings {unknown}; valid: {', '.join(ORDER)}")
         cli.require_integer("seeds", self.seeds, 1)
         cli.require_integer("jobs", self.jobs, 1)
-        cli.require(
-            not self.reuse or os.path.isdir(self.reuse),
-            f"--reuse={self.reuse}: not a folder of shipped runs (--reuse= for none)",
-        )
 
 
 def queue(settings: StudySettings) -> list[tuple[str, int]]:
@@ -152,6 +148,10 @@ def define_flags() -> None:
 def main(argv: list[str]) -> None:
     del argv
     settings = cli.settings_from_flags(StudySettings, settings=tuple(flags.FLAGS.settings))
+    cli.check(
+        not settings.reuse or os.path.isdir(settings.reuse),
+        f"--reuse={settings.reuse}: not a folder of shipped runs (--reuse= for none)",
+    )
     failed = run_study(settings)
     if failed:
         sys.stderr.write(f"error: {failed} runs failed; see {settings.out}/logs\n")

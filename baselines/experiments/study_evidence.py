@@ -354,11 +354,6 @@ class EvidenceSettings:
     study: str = os.path.join("results", "study", "runs")
     protocol_runs: str = os.path.join("results", "protocol", "runs")
 
-    def __post_init__(self):
-        for flag in ("study", "protocol_runs"):
-            path = getattr(self, flag)
-            cli.require(os.path.isdir(path), f"--{flag}={path}: not a folder of runs")
-
 
 def sole_half_length() -> float:
     """Half the length of the DARwIn-OP's sole, m: the foot's collision box in the model."""
@@ -427,6 +422,9 @@ def define_flags() -> None:
 def main(argv: list[str]) -> None:
     del argv
     settings = cli.settings_from_flags(EvidenceSettings)
+    for flag in ("study", "protocol_runs"):
+        path = getattr(settings, flag)
+        cli.check(os.path.isdir(path), f"--{flag}={path}: not a folder of runs")
     evidence = compute(settings)
     runs.write_text(settings.out, json.dumps(evidence, indent=1, sort_keys=True) + "\n")
     print(f"computed evidence -> {settings.out}")
