@@ -6,7 +6,7 @@ import re
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 README = os.path.join(ROOT, "README.md")
 # Pages whose Python examples run with the README's (the examples moved off the front page).
-EXAMPLES = (README, os.path.join(ROOT, "docs", "tasks.md"), os.path.join(ROOT, "docs", "baselines.md"))
+EXAMPLES = (README, os.path.join(ROOT, "docs", "tasks.md"))
 
 
 def _blocks(language, path=README):
