@@ -12,6 +12,7 @@ import json
 import os
 
 import numpy as np
+import pandas as pd
 
 from analysis.study import chapter6
 from analysis.study import verdicts as v
@@ -153,8 +154,6 @@ def cpg_6(ev: Evidence) -> v.Verdict:
 
 def _progress(ev: Evidence, config: str) -> list:
     """The logged windows (`progress.csv`: θ's norm, max |F|) of a NAC configuration's runs."""
-    import pandas as pd
-
     nac_runs(ev, "darwin_balance", config)  # five runs or MissingEvidence
     root = os.path.join(ev.results, *NAC, "darwin_balance")
     return [pd.read_csv(os.path.join(root, f"{config}_seed{s}", "progress.csv")) for s in range(5)]

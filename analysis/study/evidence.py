@@ -17,6 +17,8 @@ import re
 import numpy as np
 import pandas as pd
 
+from analysis import leaderboard
+
 STUDY = os.path.join("results", "study", "runs")  # baselines.experiments.cem_study's output
 PROTOCOL = os.path.join("results", "protocol", "runs")  # the board's shipped runs
 FALL_PENALTY = 10.0  # the runs' cost of a fall, m (baselines.cem's default, config.json)
@@ -89,12 +91,6 @@ def _finished(path: str) -> bool:
     return os.path.isfile(os.path.join(path, "summary.json"))
 
 
-def _trained_under_v1(config: dict) -> bool:
-    """Version-1 physics: the setting in config.json, or a run made before the field
-    existed (those runs were named `_v1_` when the board renamed them)."""
-    return config["settings"].get("benchmark_version", 1) == 1
-
-
 @functools.lru_cache(maxsize=4)
 def cem_runs(study: str = STUDY, protocol: str = PROTOCOL) -> dict[str, list[CEMRun]]:
     """The finished CEM runs by setting (`baselines.cem.TABLE6_3` names), seeds in order.
@@ -121,7 +117,8 @@ def cem_runs(study: str = STUDY, protocol: str = PROTOCOL) -> dict[str, list[CEM
             if root != roots[0] and not (name.startswith("K50_") and "_v1_" in name):
                 continue
             run = CEMRun(m["setting"], int(m["seed"]), *_read_run(path))
-            if not _trained_under_v1(run.config) and root == roots[0]:
+            trained = leaderboard.trained_version(os.path.join(path, "config.json"))
+            if trained != 1 and root == roots[0]:
                 raise ValueError(f"{path} was not trained under version 1 (the study's physics)")
             found.setdefault(run.setting, []).append(run)
     for runs in found.values():
