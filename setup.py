@@ -49,7 +49,7 @@ setup(
     license="Apache-2.0",
     python_requires=">=3.10",
     packages=find_packages(
-        include=["cpg_suite", "cpg_suite.*", "baselines", "baselines.*", "analysis"]
+        include=["cpg_suite", "cpg_suite.*", "baselines", "baselines.*", "analysis", "analysis.*"]
     ),
     package_data={
         "cpg_suite": ["xml/*.xml", "xml/common/*.xml", "data/*.json", "data/*.md"],
