@@ -87,6 +87,7 @@ def walk(
     time_limit: float = _DEFAULT_MOVES * _MOVE_TIME,
     random=None,
     stochastic: float = 0.0,
+    backward_penalty: float = 1.0,
     environment_kwargs: dict | None = None,
 ) -> control.Environment:
     """Returns the crawler task: reward = forward chassis displacement per move (m).
@@ -95,13 +96,15 @@ def walk(
       time_limit: Episode length in seconds (one move per 0.6 s; default 200 moves).
       random: Seed or `np.random.RandomState` for the initial state and slips.
       stochastic: Probability p in [0, 1) that a move does not happen.
+      backward_penalty: Factor k ≥ 1 on a backward move's (negative) displacement in the
+        reward: the study's "moving backwards punished heavily" (claim CR-10; 1: none).
       environment_kwargs: Passed to `control.Environment`.
 
     Returns:
       A `control.Environment`.
     """
     physics = Physics.from_xml_string(*get_model_and_assets())
-    task = Walk(stochastic=stochastic, random=random)
+    task = Walk(stochastic=stochastic, backward_penalty=backward_penalty, random=random)
     return base.make_environment(physics, task, time_limit, _MOVE_TIME, environment_kwargs)
 
 
@@ -158,17 +161,21 @@ class Physics(mujoco.Physics):
 class Walk(base.Task):
     """Move the arm around the 5 × 5 grid so that the chassis advances (thesis Sec. 4.1)."""
 
-    def __init__(self, stochastic: float = 0.0, random=None):
+    def __init__(self, stochastic: float = 0.0, backward_penalty: float = 1.0, random=None):
         """Args:
           stochastic: Probability that a move does not happen, in [0, 1).
+          backward_penalty: Factor k ≥ 1 on a backward move's displacement in the reward.
           random: Seed or `np.random.RandomState`.
 
         Raises:
-          ValueError: If `stochastic` is outside [0, 1).
+          ValueError: If `stochastic` is outside [0, 1) or `backward_penalty` below 1.
         """
         if not 0.0 <= stochastic < 1.0:
             raise ValueError(f"stochastic must lie in [0, 1), got {stochastic!r}")
+        if not (np.isfinite(backward_penalty) and backward_penalty >= 1.0):
+            raise ValueError(f"backward_penalty must be a number ≥ 1, got {backward_penalty!r}")
         self.stochastic = float(stochastic)
+        self.backward_penalty = float(backward_penalty)
         self._action_spec = specs.DiscreteArray(len(ACTIONS), dtype=np.int64, name="move")
         self.cell = (0, 0)
         self.blocked = False
@@ -209,11 +216,16 @@ class Walk(base.Task):
         obs["blocked"] = np.array([float(self.blocked)])
         return obs
 
-    def get_reward(self, physics: Physics) -> float:
-        """Chassis x displacement during the move, m; exactly 0 for a blocked move."""
+    def move_displacement(self, physics: Physics) -> float:
+        """Chassis x displacement during the last move, m; exactly 0 for a blocked move."""
         if self.blocked:
             return 0.0
         return physics.chassis_x() - self._x_before
+
+    def get_reward(self, physics: Physics) -> float:
+        """The move's displacement, m, a backward one times `backward_penalty`."""
+        d = self.move_displacement(physics)
+        return d if d >= 0.0 else self.backward_penalty * d
 
     def reward_to_unit(self, reward: float) -> float:
         return 0.5 + 0.5 * reward / _VIZ_STEP

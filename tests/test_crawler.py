@@ -94,6 +94,29 @@ def test_bad_stochastic_argument():
         cpg_suite.load("crawler_walk", task_kwargs={"stochastic": 1.0})
 
 
+def test_a_backward_penalty_scales_only_backward_moves():
+    """The same moves with backward moves punished ×10: forward rewards equal, backward
+    ones ten times the displacement, which `move_displacement` still reports."""
+    backward = [RIGHT, RIGHT, DOWN, LEFT, LEFT, UP]
+    plain, punished = _env(), _env(backward_penalty=10.0)
+    for env in (plain, punished):
+        _goto(env, 2, 2)
+    seen = set()
+    for a in backward * 3 + [DOWN, RIGHT]:
+        r0, r1 = plain.step(a).reward, punished.step(a).reward
+        d = punished.task.move_displacement(punished.physics)
+        assert d == plain.task.move_displacement(plain.physics)
+        assert r1 == (10.0 * r0 if r0 < 0 else r0) and r0 == d
+        seen.add(d < 0)
+    assert seen == {True, False}
+
+
+@pytest.mark.parametrize("k", [0.5, float("nan"), float("inf")])
+def test_bad_backward_penalty(k):
+    with pytest.raises(ValueError, match="backward_penalty"):
+        cpg_suite.load("crawler_walk", task_kwargs={"backward_penalty": k})
+
+
 TOKIC = models.tokic_model()
 SIX_CYCLE_REWARD = 53.0
 

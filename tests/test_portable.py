@@ -191,15 +191,12 @@ for head in ("normal", "tanh_normal"):
     policy = exported.NumpyPolicy(arrays, "joints")
     actions = [policy.act(rng.standard_normal((1, 40))) for _ in range(64)]
     out[f"numpy_policy_{head}"] = digest(actions)
-# The shipped torch policies (Stable-Baselines3 PPO), on the observations of a real trial.
+# The shipped Stable-Baselines3 PPO policies as the test protocol runs them (PortableActor).
 from cpg_suite.protocol import verify
-from cpg_suite.harness import sb3
-with sb3.single_threaded():
-    for name in ("joints_v1_seed0", "cpg_v1_seed0"):
-        policy = verify.shipped_policy(os.path.join(sys.argv[2], name))
-        flat = rng.standard_normal((64, policy.model.observation_space.shape[0]))
-        out[f"torch_{name}"] = digest([sb3.predict(policy.model, policy.normalizer, flat[i:i + 1])
-                                       for i in range(64)])
+for name in ("joints_v1_seed0", "cpg_v1_seed0"):
+    policy = verify.shipped_policy(os.path.join(sys.argv[2], name))
+    flat = 3 * rng.standard_normal((64, policy.model.observation_space.shape[0]))
+    out[f"sb3_{name}"] = digest([policy.actor(flat[i:i + 1]) for i in range(64)])
 # Short CEM and CMA-ES runs.
 base = dict(population=6, rounds=3, trial_steps=150, fall_penalty=10.0)
 base.update(validation_seeds=2, test_seeds=2)

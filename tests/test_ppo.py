@@ -303,6 +303,40 @@ def test_cpg_run_killed_after_a_checkpoint_resumes_to_the_same_result(tmp_path):
     assert summary_bytes
 
 
+_SHIPPED_PPO = os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "results/protocol/runs/ppo"
+)
+
+
+@pytest.mark.parametrize("name", ["cpg_seed0", "joints_seed1"])
+def test_the_portable_actor_is_the_torch_policy_to_float32_rounding(name):
+    """The test protocol's actor (NumPy, portable arithmetic) against SB3's own predict
+    (torch, float32) on a shipped policy: the same function; and each row's action does
+    not depend on the rows beside it."""
+    from cpg_suite.protocol import verify
+
+    policy = verify.shipped_policy(os.path.join(_SHIPPED_PPO, "darwin_walk", name))
+    flat = 3 * np.random.default_rng(5).standard_normal((20, 42 if "cpg" in name else 40))
+    with sb3.single_threaded():
+        reference = np.concatenate(
+            [sb3.predict(policy.model, policy.normalizer, r[None]) for r in flat]
+        )
+    actions = policy.actor(flat)
+    assert actions.shape == (20, 12) and np.abs(actions).max() <= 1.0
+    np.testing.assert_allclose(actions, reference, atol=2e-6)
+    assert np.array_equal(np.concatenate([policy.actor(r[None]) for r in flat]), actions)
+
+
+def test_the_portable_actor_refuses_a_policy_it_does_not_compute():
+    import torch
+    from stable_baselines3 import PPO
+
+    env = sb3.normalized(sb3.FlatVecEnv(sb3.make_vector_env(_settings(), 1, threads=1)), 0.99)
+    model = PPO("MlpPolicy", env, policy_kwargs={"activation_fn": torch.nn.ReLU}, n_steps=64)
+    with pytest.raises(ValueError, match="Tanh"):
+        sb3.PortableActor(model, env)
+
+
 def test_settings_are_checked():
     for kw, words in [
         ({"action_space": "torques"}, "--action_space"),

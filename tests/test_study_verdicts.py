@@ -121,3 +121,88 @@ def test_a_run_not_trained_under_version_1_is_refused(tmp_path):
 
     with pytest.raises(ValueError, match="not trained under version 1"):
         evidence.cem_runs(str(tmp_path), str(tmp_path / "none"))
+
+
+def test_the_sweep_the_rules_judge_is_the_sweep_that_runs():
+    from analysis.study import chapter5
+    from baselines.experiments import nac_experiments
+
+    assert chapter5.SWEEP == nac_experiments.SWEEP
+    for config in nac_experiments.SWEPT:
+        for point in nac_experiments.SWEEP:
+            assert chapter5.point_name(config, *point) == nac_experiments.point_name(config, *point)
+
+
+def _write_sweep(root, diverged: dict[str, list[int]]) -> Evidence:
+    """NAC summaries at every sweep point: `diverged[config]` gives, per point, how many of
+    its five seeds diverged (the others gain 0.001 on the COP reward)."""
+    from analysis.study import chapter5
+
+    for config, counts in diverged.items():
+        for point, count in zip(chapter5.SWEEP, counts):
+            for seed in range(5):
+                bad = seed < count
+                run = root / "study" / "nac" / "nac" / "darwin_balance"
+                run = run / f"{chapter5.point_name(config, *point)}_seed{seed}"
+                run.mkdir(parents=True)
+                summary = {"diverged": bad, "reward_before": -0.05}
+                summary["reward_after"] = None if bad else -0.049 + 1e-4 * seed
+                (run / "summary.json").write_text(json.dumps(summary))
+    return Evidence(results=str(root))
+
+
+@pytest.mark.parametrize(
+    "nofix, fixes, expected",
+    [
+        ([5, 4, 4, 0, 0, 0], [0, 0, 0, 3, 0, 0], (v.HOLDS, v.HOLDS, v.HOLDS)),
+        ([0, 1, 0, 1, 0, 0], [0] * 6, (v.FAILS, v.INCONCLUSIVE, v.FAILS)),
+        ([5, 5, 5, 5, 5, 5], [5, 0, 0, 0, 0, 0], (v.HOLDS, v.FAILS, v.HOLDS)),
+    ],
+)
+def test_the_nac_sweep_rules_follow_the_divergences(tmp_path, nofix, fixes, expected):
+    """NAC-1 (θ blows up without the fixes), NAC-2a (the fixes stop it) and NAC-7 (the
+    outcome depends on the step sizes) on made-up sweeps whose answers are known."""
+    from analysis.study import chapter5
+
+    ev = _write_sweep(tmp_path, {"nofix": nofix, "fixes": fixes})
+    found = (chapter5.nac_1(ev), chapter5.nac_2a(ev), chapter5.nac_7(ev))
+    assert tuple(f.verdict for f in found) == expected
+
+
+def test_a_sweep_point_short_of_seeds_is_missing_evidence(tmp_path):
+    from analysis.study import chapter5
+
+    ev = _write_sweep(tmp_path, {"nofix": [0] * 6})
+    (tmp_path / "study/nac/nac/darwin_balance/nofix_alpha10_epsA0.01_seed4/summary.json").unlink()
+    with pytest.raises(MissingEvidence, match="nofix_alpha10_epsA0.01: 4 of 5 .* --sweep"):
+        chapter5.sweep_runs(ev, "nofix")
+
+
+def _write_scaled(root, change: float, rewards: list[float], fall_from: float) -> Evidence:
+    runs = []
+    for seed in range(5):
+        scaled = [
+            {"c": c, "reward_per_step": r, "falls": int(c >= fall_from)}
+            for c, r in zip((1.0, 2.0, 5.0, 10.0, 20.0, 50.0), rewards)
+        ]
+        runs.append({"seed": seed, "hip_roll_change": change, "scaled": scaled})
+    found = {"theta_zero": {"reward_per_step": -0.05, "falls": 0}, "runs": runs}
+    (root / "study" / "nac").mkdir(parents=True)
+    (root / "study" / "nac" / "nac_scaled.json").write_text(json.dumps(found))
+    return Evidence(results=str(root))
+
+
+def test_the_scaled_theta_rules(tmp_path):
+    """NAC-4b/5/6 on made-up scaled trials: a small term whose gait worsens and falls at
+    c ≥ 20 (NAC-4b and NAC-5 hold; the reward drops > 10 % before the fall: NAC-6 fails)."""
+    from analysis.study import chapter5
+
+    ev = _write_scaled(tmp_path, 0.05, [-0.051, -0.052, -0.06, -0.07, -0.2, -0.5], 20.0)
+    assert chapter5._c_star(chapter5.scaled(ev)["runs"][0]) == 5.0
+    assert chapter5.nac_4b(ev).verdict == v.HOLDS
+    assert chapter5.nac_5(ev).verdict == v.HOLDS
+    assert chapter5.nac_6(ev).verdict == v.FAILS
+    flat = _write_scaled(tmp_path / "flat", 0.5, [-0.0501] * 6, 99.0)
+    assert chapter5.nac_4b(flat).verdict == v.FAILS
+    assert chapter5.nac_5(flat).verdict == v.FAILS  # never worse by a fall
+    assert chapter5.nac_6(flat).verdict == v.HOLDS

@@ -1,9 +1,11 @@
 """Chapter 5: the DARwIn-OP's CPG (Sec. 5.2) and the Natural Actor-Critic (Secs. 5.3-5.5).
 
 The NAC runs come from `baselines.experiments.nac_experiments --output_dir=results/study/nac`
-(per run `nac/<task>/<config>_seed<S>/summary.json`). The CPG claims are computed from the
-CPG's targets (no physics) and from trials of the hand-tuned gait and of the study's learned
-gaits (`analysis.study.chapter6.trial`).
+(per run `nac/<task>/<config>_seed<S>/summary.json`), its step-size sweep from the same
+command with `--sweep --resume` (`<config>_alpha<α>_epsA<ε_A>_seed<S>`), the fixes runs'
+θ scaled up with `--scaled` (`nac_scaled.json`). The CPG claims
+are computed from the CPG's targets (no physics) and from trials of the hand-tuned gait and
+of the study's learned gaits (`analysis.study.chapter6.trial`).
 """
 
 from __future__ import annotations
@@ -42,9 +44,10 @@ def nac_runs(ev: Evidence, task: str, config: str) -> list[dict]:
         with open(path, encoding="utf-8") as f:
             found.append(json.load(f))
     if len(found) < 5:
+        sweep = " --sweep --resume" if "_alpha" in config else ""
         raise MissingEvidence(
-            f"NAC {config}: {len(found)} of 5 seeds "
-            "(python -m baselines.experiments.nac_experiments --output_dir=results/study/nac)"
+            f"NAC {config}: {len(found)} of 5 seeds (python -m "
+            f"baselines.experiments.nac_experiments --output_dir=results/study/nac{sweep})"
         )
     return found
 
@@ -65,6 +68,173 @@ def nac_3(ev: Evidence) -> v.Verdict:
     if low > margin:
         return v.Verdict(v.FAILS, text, "the NAC improved the reward in our runs")
     return v.Verdict(v.INCONCLUSIVE, text, "the interval reaches past 10 %")
+
+
+# The sweep the catalog's NAC-1, NAC-2a and NAC-7 are judged over, (α, ε_A), and the run
+# names `nac_experiments --sweep` gives its points (BASE's point, α 100 and ε_A 1e-6, keeps
+# the plain name); a test holds them equal to nac_experiments.SWEEP and point_name.
+SWEEP = tuple((alpha, eps_a) for alpha in (1.0, 10.0, 100.0) for eps_a in (1e-6, 1e-2))
+
+
+def point_name(config: str, alpha: float, eps_a: float) -> str:
+    """The run-name stem of a configuration at a sweep point."""
+    return config if (alpha, eps_a) == (100.0, 1e-6) else f"{config}_alpha{alpha:g}_epsA{eps_a:g}"
+
+
+def sweep_runs(ev: Evidence, config: str) -> dict[tuple[float, float], list[dict]]:
+    """A configuration's runs at every point (α, ε_A) of the step-size sweep.
+
+    Raises:
+      MissingEvidence: If a point has fewer than 5 runs.
+    """
+    return {point: nac_runs(ev, "darwin_balance", point_name(config, *point)) for point in SWEEP}
+
+
+def _diverged(runs: list[dict]) -> int:
+    return sum(bool(r["diverged"]) for r in runs)
+
+
+def _counts(sweep: dict[tuple[float, float], list[dict]]) -> str:
+    return ", ".join(f"α {a:g} ε_A {e:g}: {_diverged(r)}/{len(r)}" for (a, e), r in sweep.items())
+
+
+@rule("NAC-1")
+def nac_1(ev: Evidence) -> v.Verdict:
+    sweep = sweep_runs(ev, "nofix")
+    text = f"no fixes, runs whose |θ| passed 1e6 or became NaN per sweep point: {_counts(sweep)}"
+    wild = sum(_diverged(r) >= 4 for r in sweep.values())
+    if wild >= len(sweep) / 2:
+        return v.Verdict(v.HOLDS, text)
+    if all(_diverged(r) < 2 for r in sweep.values()):
+        return v.Verdict(v.FAILS, text, "θ did not blow up at any sweep point in our runs")
+    return v.Verdict(v.INCONCLUSIVE, text, "it blew up at fewer than half the sweep points")
+
+
+@rule("NAC-2a")
+def nac_2a(ev: Evidence) -> v.Verdict:
+    nofix, fixes = sweep_runs(ev, "nofix"), sweep_runs(ev, "fixes")
+    text = f"with the fixes, diverged per sweep point: {_counts(fixes)}"
+    wild = [p for p, r in nofix.items() if _diverged(r) >= 4]
+    if not wild:
+        return v.Verdict(v.INCONCLUSIVE, text, "without the fixes θ blew up at no sweep point")
+    if any(_diverged(fixes[p]) >= 4 for p in wild):
+        return v.Verdict(v.FAILS, text, "the fixes did not stop the blow-up in our runs")
+    if all(_diverged(fixes[p]) <= 1 for p in wild):
+        return v.Verdict(v.HOLDS, text)
+    return v.Verdict(v.INCONCLUSIVE, text, "the seeds split where it blew up")
+
+
+@rule("NAC-7")
+def nac_7(ev: Evidence) -> v.Verdict:
+    sweep = sweep_runs(ev, "fixes")
+    counts = [_diverged(r) for r in sweep.values()]
+    intervals = []
+    for runs in sweep.values():
+        finished = [r for r in runs if r["reward_after"] is not None]
+        change = [r["reward_after"] - r["reward_before"] for r in finished]
+        intervals.append(v.mean_interval(change) if len(change) >= 2 else None)
+    shown = ", ".join(
+        f"α {a:g} ε_A {e:g}: {m:+.5f} [{lo:+.5f}, {hi:+.5f}]"
+        for (a, e), (m, lo, hi) in zip(sweep, [i or (np.nan,) * 3 for i in intervals])
+    )
+    text = f"with the fixes, COP reward change per sweep point: {shown}; diverged {counts}"
+    known = [i for i in intervals if i is not None]
+    apart = any(a[2] < b[1] or b[2] < a[1] for a in known for b in known)
+    if max(counts) - min(counts) >= 3 or apart:
+        return v.Verdict(v.HOLDS, text)
+    return v.Verdict(v.FAILS, text, "every sweep point gave the same outcome within its interval")
+
+
+def scaled(ev: Evidence) -> dict:
+    """The fixes runs' θ scaled up (`nac_experiments --scaled`: `nac_scaled.json`).
+
+    Raises:
+      MissingEvidence: If the file is missing or holds fewer than 5 runs.
+    """
+    path = os.path.join(ev.results, "study", "nac", "nac_scaled.json")
+    found = None
+    if os.path.isfile(path):
+        with open(path, encoding="utf-8") as f:
+            found = json.load(f)
+    if not found or len(found["runs"]) < 5:
+        raise MissingEvidence(
+            "NAC θ scaled: python -m baselines.experiments.nac_experiments "
+            "--output_dir=results/study/nac --scaled"
+        )
+    return found
+
+
+# NAC-5/6: θ "large enough to change the gait noticeably" is read as moving the left
+# hip-roll rate by more than 20 % of the CPG's own (RMS over a cycle): c* per run.
+NOTICEABLE = 0.2
+
+
+def _c_star(run: dict) -> float | None:
+    """The smallest scale whose hip-roll change passes `NOTICEABLE` (None: none does)."""
+    return next(
+        (p["c"] for p in run["scaled"] if p["c"] * run["hip_roll_change"] > NOTICEABLE), None
+    )
+
+
+@rule("NAC-4b")
+def nac_4b(ev: Evidence) -> v.Verdict:
+    change = [r["hip_roll_change"] for r in scaled(ev)["runs"]]
+    text = "RMS of the learned term over the CPG's own left hip-roll rate, per seed: " + ", ".join(
+        f"{c:.2f}" for c in change
+    )
+    if sum(c < 0.1 for c in change) >= 4:
+        return v.Verdict(v.HOLDS, text)
+    if sum(c > 0.3 for c in change) >= 4:
+        return v.Verdict(v.FAILS, text, "the learned term moves the hip-roll rate by > 30 %")
+    return v.Verdict(v.INCONCLUSIVE, text, "the seeds split")
+
+
+def _scaled_text(found: dict) -> str:
+    zero = found["theta_zero"]["reward_per_step"]
+    rows = []
+    for run in found["runs"]:
+        points = ", ".join(
+            f"{p['c']:g}: {p['reward_per_step']:+.4f}{' F' * bool(p['falls'])}"
+            for p in run["scaled"]
+        )
+        rows.append(f"seed {run['seed']} (c* {_c_star(run)}) {points}")
+    return f"COP reward per step at θ = 0 {zero:+.4f}; scaled θ (F: a fall): " + "; ".join(rows)
+
+
+@rule("NAC-5")
+def nac_5(ev: Evidence) -> v.Verdict:
+    found = scaled(ev)
+    zero = found["theta_zero"]["reward_per_step"]
+    flags = []
+    for run in found["runs"]:
+        c_star = _c_star(run)
+        after = [p for p in run["scaled"] if c_star is not None and p["c"] >= c_star]
+        worse = bool(after) and all(p["reward_per_step"] < zero for p in after)
+        flags.append(worse and run["scaled"][-1]["falls"] > 0)
+    return v.majority(flags, _scaled_text(found) + "; worse at every c ≥ c* and a fall at c 50")
+
+
+@rule("NAC-6")
+def nac_6(ev: Evidence) -> v.Verdict:
+    found = scaled(ev)
+    zero = found["theta_zero"]["reward_per_step"]
+    same, dropped = [], []
+    for run in found["runs"]:
+        c_star = _c_star(run)
+        before_fall = []
+        for p in run["scaled"]:
+            if p["falls"]:
+                break
+            if c_star is not None and p["c"] >= c_star:
+                before_fall.append(abs(p["reward_per_step"] - zero) <= 0.1 * abs(zero))
+        same.append(bool(before_fall) and all(before_fall))
+        dropped.append(any(not ok for ok in before_fall))
+    text = _scaled_text(found) + "; within 10 % of θ = 0 at every c ≥ c* before a fall"
+    if sum(same) >= 4:
+        return v.Verdict(v.HOLDS, f"{text}: {sum(same)} of 5 seeds")
+    if sum(dropped) >= 4:
+        return v.Verdict(v.FAILS, f"{text}: {sum(same)} of 5 seeds", "the reward dropped > 10 %")
+    return v.Verdict(v.INCONCLUSIVE, f"{text}: {sum(same)} of 5 seeds", "the seeds split")
 
 
 # CEM against the NAC (Sec. 6.3 / 7.1.2): judged here, where the NAC's evidence is.

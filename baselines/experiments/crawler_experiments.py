@@ -66,6 +66,8 @@ REALTIME = (
 # Random moves gathering the model of approach 1b; 5000 measures every transition many
 # times over: the complete model of our crawler, which the study's CR-6 compares with.
 EXPLORE_MOVES = (50, 100, 200, 500, 1000, 5000)
+BACKWARD_PENALTIES = (10, 100)  # factors k on backward moves' reward (claim CR-10)
+WORSE_M = 1e-4  # an entry "worse" than the best seen for its move: by more than 0.1 mm (a choice)
 LAST = 100  # moves at the end of a real-time run whose displacement `last_moves_m` sums
 GAMMAS = (0.5, 0.6, 0.7, 0.75, 0.79, 0.8, 0.85, 0.9, 0.93, 0.95)
 # Where the study reports each method's real-time result: ids of analysis/published.csv
@@ -102,9 +104,11 @@ def _from_run_files(run_dir: str) -> dict:
     """What the per-run table takes from a run's files beyond its summary: the displacement
     of the last `LAST` moves, the RMS error's area (Σ_t RMS_t / (T · RMS_0), thesis
     Fig. 4.6's convergence as one number), its mean over the first 20 moves and its value
-    at move 300 (where ε reaches 0), and the
+    at move 300 (where ε reaches 0), the
     rank correlation of the learned rewards with Tokic's table over the transitions both
-    have (thesis Table 4.2 against Table 4.1)."""
+    have (thesis Table 4.2 against Table 4.1), and how many entries of the final table
+    hold a measurement worse (by more than `WORSE_M`) than the best seen for their move
+    (claim CR-9b: each move overwrites its entry)."""
     progress = pd.read_csv(os.path.join(run_dir, "progress.csv"))
     rms = progress["rms"].to_numpy()
     learned = runs.read_json(os.path.join(run_dir, "learned_rewards.json"))["rewards"]
@@ -115,12 +119,15 @@ def _from_run_files(run_dir: str) -> dict:
         if (a, b) in tokic:
             pairs.append((reward, tokic[(a, b)]))
     rho = float(stats.spearmanr(*zip(*pairs)).statistic) if len(pairs) > 2 else float("nan")
+    by_move = progress.groupby(["state", "action"])["reward_m"]
+    worse = int((by_move.last() < by_move.max() - WORSE_M).sum())
     return {
         "last_moves_m": float(progress["reward_m"].to_numpy()[-LAST:].sum()),
         "rms_area": float(rms.sum() / (len(rms) * rms[0])) if rms[0] > 0 else float("nan"),
         "rms_first20": float(rms[:20].mean()),
         "rms_at_300": float(rms[min(299, len(rms) - 1)]),
         "tokic_rank_correlation": rho,
+        "entries_worse_than_best": worse,
     }
 
 
@@ -260,6 +267,7 @@ REALTIME_COLUMNS = (
     "rms_first20",
     "rms_at_300",
     "tokic_rank_correlation",
+    "entries_worse_than_best",
 )
 
 
@@ -286,6 +294,12 @@ def realtime_configs() -> list[tuple[str, str, dict]]:
     ]
     configs += [("value_iteration", "value_iteration_hold300", {"epsilon": "0:0.9,300:0.9,500:0"})]
     configs += [("value_iteration", "value_iteration_moves5000", {"steps": 5000})]
+    # Backward moves punished heavily (k times their displacement; the study: the robot
+    # then stands still, CR-10; "heavily" is not quantified, so two factors).
+    configs += [
+        ("value_iteration", f"value_iteration_backward{k}", {"backward_penalty": float(k)})
+        for k in BACKWARD_PENALTIES
+    ]
     # The learners as the study let them learn, to convergence: 5000 moves, learning on
     # throughout (α 0.5, the middle of the α grid; the study gives none).
     configs += [(a, f"{a}_moves5000", {"steps": 5000, "alpha": 0.5}) for a in REALTIME[2:]]

@@ -62,6 +62,7 @@ _FLAGS = {
     "realtime": ("bool", "Crawler: plan (value/policy iteration) on rewards measured online."),
     "explore_moves": ("integer", "Crawler: first N moves random (ε = 1), approach 1b."),
     "stochastic": ("float", "Crawler: probability that a move does not happen."),
+    "backward_penalty": ("float", "Crawler: factor k ≥ 1 on backward moves' reward (1: none)."),
     "eval_moves": ("integer", "Crawler: moves of the frozen greedy policy after learning."),
 }
 

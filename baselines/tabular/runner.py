@@ -260,6 +260,7 @@ def _crawler_env(settings: TabularSettings):
             "random": settings.seed,
             "time_limit": float("inf"),
             "stochastic": settings.stochastic,
+            "backward_penalty": settings.backward_penalty,
         },
     )
 
@@ -342,12 +343,13 @@ def _cycle_joints(grid: models.TabularModel, states: list[int]) -> int:
 
 def _run_policy(env, learner, to_state, moves: int) -> float:
     """Runs the learner's greedy policy (no learning) for `moves` moves; returns the
-    displacement, m, from the environment's current state."""
+    displacement, m, from the environment's current state (the moves' displacements, not
+    their rewards, which a backward penalty scales)."""
     total = 0.0
     s = to_state(env.task.get_observation(env.physics))
     for _ in range(moves):
         ts = env.step(learner.greedy(s))
-        total += float(ts.reward)
+        total += env.task.move_displacement(env.physics)
         s = to_state(ts.observation)
     return total
 

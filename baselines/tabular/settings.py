@@ -56,6 +56,8 @@ class TabularSettings:
       realtime: Crawler: plan (value/policy iteration) on rewards measured online.
       explore_moves: Crawler: the first N moves are random (ε = 1), approach 1b.
       stochastic: Crawler: probability that a move does not happen.
+      backward_penalty: Crawler: factor k ≥ 1 on a backward move's displacement in the
+        reward (1: none; the study's CR-10).
       eval_moves: Crawler: moves of the frozen greedy policy after learning.
     """
 
@@ -85,6 +87,7 @@ class TabularSettings:
     realtime: bool = False
     explore_moves: int = 0
     stochastic: float = 0.0
+    backward_penalty: float = 1.0
     eval_moves: int = 100
 
     def __post_init__(self):
@@ -162,6 +165,7 @@ def _check_ranges(s: TabularSettings) -> None:
         cli.require_number("force", s.force, 0, 1e4, low_open=True)  # a choice, N
     require(s.explore_moves >= 0, f"--explore_moves must be ≥ 0, got {s.explore_moves}")
     cli.require_number("stochastic", s.stochastic, 0, 1, high_open=True)
+    cli.require_number("backward_penalty", s.backward_penalty, 1, 1e6)  # a choice: finite
     require(s.eval_moves >= 0, f"--eval_moves must be ≥ 0, got {s.eval_moves}")
     require(
         not (s.algo == "policy_iteration" and s.gamma >= 1.0 and s.model is None),

@@ -10,7 +10,8 @@ module.
 * `FlatVecEnv`: that env as an SB3 `VecEnv`, the observation dict flattened in the fixed
   order `OBS_KEYS` (then the CPG phase); `normalized` wraps it in SB3's `VecNormalize`.
 * `TrainedPolicy`: a trained model and its `VecNormalize` statistics as a policy for one
-  environment, as `cpg_suite.protocol.score.score_policy` runs it.
+  environment, as `cpg_suite.protocol.score.score_policy` runs it; it acts through
+  `PortableActor`, the network's arithmetic in NumPy, the same bits on any x86-64 CPU.
 * `import_torch`, `load_model`, `model_bytes`: torch imported safely, models to and from
   bytes; `single_threaded`: torch on one thread for a while (training and scoring use it:
   a policy's actions then do not depend on the machine's core count);
@@ -38,10 +39,11 @@ import stable_baselines3
 import torch  # before cpg_suite: with MUJOCO_GL=egl the other order crashes torch (README)
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.distributions import DiagGaussianDistribution
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 import cpg_suite
-from cpg_suite import darwin, electrical, protocol, residual, vector
+from cpg_suite import darwin, electrical, portable, protocol, residual, vector
 
 # The SB3 algorithm of each policy learner's method name (its run directories' second level).
 ALGORITHMS = {"ppo": "PPO"}
@@ -257,6 +259,71 @@ def normalized(env: VecEnv, gamma: float) -> VecNormalize:
 
 
 # The trained policy.
+class PortableActor:
+    """The deterministic action of a PPO `MlpPolicy` with `cpg_suite.portable`'s arithmetic.
+
+    Torch multiplies matrices with kernels (MKL, oneDNN) it picks for the CPU it runs on,
+    and their last bits differ from CPU to CPU; in a walking robot's trial a last bit grows
+    into a different fall. This actor computes the same function portably: the raw
+    observation normalized as `VecNormalize` does (clipped, then rounded to float32, which
+    is what SB3 hands torch), the policy network's layers in float64 with
+    `portable.pairwise_matmul` and `portable.tanh`, the Gaussian's mean clipped to the
+    action box. It agrees with torch's float32 `predict` to about 1e-6 (a test) and with
+    itself on every CPU, row by row, whatever the batch.
+    """
+
+    _ROWS = 8  # observations per pass through the network (cache-sized; each row its own)
+
+    def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize):
+        """Args:
+          model: A trained SB3 model whose policy is an `ActorCriticPolicy` with a flat
+            observation, Tanh hidden layers and a diagonal Gaussian head (PPO's `MlpPolicy`).
+          normalizer: Its VecNormalize (statistics only).
+
+        Raises:
+          ValueError: On any other policy (another activation, head or extractor).
+        """
+        policy = model.policy
+        hidden = list(policy.mlp_extractor.policy_net)
+        linear = [m for m in hidden if isinstance(m, torch.nn.Linear)]
+        if (
+            not isinstance(policy.action_dist, DiagGaussianDistribution)
+            or policy.squash_output
+            or any(not isinstance(m, (torch.nn.Linear, torch.nn.Tanh)) for m in hidden)
+            or len(linear) * 2 != len(hidden)
+        ):
+            raise ValueError("PortableActor needs an MlpPolicy: Tanh layers, a Gaussian head")
+        self.layers = [_float64(m) for m in [*linear, policy.action_net]]
+        rms = normalizer.obs_rms
+        self.mean = np.asarray(rms.mean, np.float64)
+        self.scale = np.sqrt(np.asarray(rms.var, np.float64) + normalizer.epsilon)
+        self.clip_obs = float(normalizer.clip_obs) if normalizer.norm_obs else None
+        space = policy.action_space
+        self.low, self.high = np.asarray(space.low, np.float64), np.asarray(space.high, np.float64)
+
+    def __call__(self, flat: np.ndarray) -> np.ndarray:
+        """(N, A) float64 actions for (N, D) raw flat observations."""
+        flat = np.asarray(flat, np.float64)
+        if len(flat) > self._ROWS:
+            rows = range(0, len(flat), self._ROWS)
+            return np.concatenate([self(flat[i : i + self._ROWS]) for i in rows])
+        x = flat
+        if self.clip_obs is not None:
+            x = np.clip((flat - self.mean) / self.scale, -self.clip_obs, self.clip_obs)
+        x = x.astype(np.float32).astype(np.float64)
+        for i, (weight, bias) in enumerate(self.layers):
+            x = portable.pairwise_matmul(x, weight) + bias
+            if i < len(self.layers) - 1:
+                x = portable.tanh(x)
+        return np.clip(x, self.low, self.high)
+
+
+def _float64(layer: torch.nn.Linear) -> tuple[np.ndarray, np.ndarray]:
+    """A linear layer's (inputs, outputs) weight and its bias, exactly, as float64."""
+    weight = layer.weight.detach().cpu().numpy().astype(np.float64).T
+    return np.ascontiguousarray(weight), layer.bias.detach().cpu().numpy().astype(np.float64)
+
+
 class TrainedPolicy:
     """A trained policy for one environment (`cpg_suite.protocol.score.score_policy`): a dm_env
     observation → (12,) normalized joint targets, deterministic.
@@ -273,6 +340,7 @@ class TrainedPolicy:
         settings: The run's settings (its action space).
         """
         self.model, self.normalizer, self.settings = model, normalizer, settings
+        self.actor = PortableActor(model, normalizer)
         self.cpg = self._cpg_rows(1)
         if self.cpg is not None:
             self._physics = cpg_suite.load("darwin_walk").physics
@@ -324,11 +392,10 @@ class TrainedPolicy:
 
     def act_batch(self, observations: dict) -> np.ndarray:
         """(n, 12) actions for n trials' observations ((n, ...) arrays), each row what
-        `__call__` gives that trial: the network runs one row at a time, as `__call__`
-        runs it (a batched torch product may round differently), the normalizer and the
-        CPG rows (element-wise) all at once."""
+        `__call__` gives that trial: the actor's arithmetic is row by row, and so is the
+        CPG rows' (element-wise)."""
         flat = residual.batch_features(observations, OBS_KEYS, self._rows)
-        action = np.concatenate([predict(self.model, self.normalizer, row[None]) for row in flat])
+        action = self.actor(flat)
         if self._rows is None:
             return action
         return residual.joint_actions(action, self._rows, self._physics, darwin.CONTROL_TIMESTEP)
@@ -338,7 +405,7 @@ class TrainedPolicy:
         if self.cpg is not None:
             features[residual.PHASE_KEY] = self.cpg.phase_features()[0]
         flat = flatten_one(features, self.keys)[None]
-        action = predict(self.model, self.normalizer, flat)
+        action = self.actor(flat)
         if self.cpg is None:
             return action[0]
         return residual.joint_actions(action, self.cpg, self._physics, darwin.CONTROL_TIMESTEP)[0]
@@ -358,6 +425,7 @@ def predict(model: BaseAlgorithm, normalizer: VecNormalize, flat: np.ndarray) ->
     `model.predict(..., deterministic=True)`'s steps with the policy's own methods, but the
     policy is put in evaluation mode only when it is not (SB3 walks all its modules on
     every call, a third of a one-row call's time); the same arithmetic, the same bits.
+    Torch's: training's validation uses it; the test protocol uses `PortableActor`.
     """
     policy = model.policy
     if policy.training:
