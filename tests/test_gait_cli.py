@@ -133,3 +133,38 @@ def test_explore_renders_headless_without_mujoco_gl(tmp_path):
     )
     assert out.returncode == 0, out.stderr
     assert (tmp_path / "hand_tuned_filmstrip.png").exists()
+
+
+@pytest.mark.slow  # renders the three tasks and 150 frames of the leader's trial
+def test_the_front_page_pictures_are_the_packages_renders(tmp_path):
+    """`python -m cpg_suite.pictures` (what `analysis.rebuild` runs) draws the three tasks
+    and the board leader's filmstrip, headless, without MUJOCO_GL."""
+    from PIL import Image
+
+    from cpg_suite import pictures
+
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY")}
+    out = run("cpg_suite.pictures", f"--out={tmp_path}", env=env)
+    assert out.returncode == 0, out.stderr
+    width, height = pictures.TILE
+    assert Image.open(tmp_path / "tasks.png").size == (3 * width, height)
+    strip = Image.open(tmp_path / "leader_gait.png")
+    assert strip.size == (pictures.FRAMES * width, height + 24)
+    assert out.stdout.splitlines()[-1].startswith("the leader's gait (")
+
+
+def test_the_leader_is_the_study_tracks_first_row(tmp_path):
+    from cpg_suite import pictures
+
+    board = tmp_path / "darwin_leaderboard.csv"
+    head = "track,rank,method,training_task,config\n"
+    board.write_text(head + "4x,1,cmaes,darwin_walk,K50\nstudy,2,cem,darwin_walk,K50\n")
+    with pytest.raises(ValueError, match="no ranked study row"):
+        pictures.leader(str(board), str(tmp_path))
+    board.write_text(head + "study,1,cem,darwin_walk,K50\n")
+    with pytest.raises(ValueError, match="no shipped run matches"):
+        pictures.leader(str(board), str(tmp_path))
+    for seed in (10, 2):
+        (tmp_path / "cem" / "darwin_walk" / f"K50_seed{seed}").mkdir(parents=True)
+    label, run_dir = pictures.leader(str(board), str(tmp_path))
+    assert label == "cem K50" and run_dir.endswith("K50_seed2")
