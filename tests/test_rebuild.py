@@ -84,9 +84,9 @@ def test_a_bad_quote_is_refused(tmp_path, text, words):
 def test_the_pages_quote_the_shipped_runs_as_they_are():
     """Every number the README, docs/ and results/ READMEs quote between fact markers is
     the shipped runs' (the board table and results/study are the slow test's)."""
-    from analysis import facts
-
     import os
+
+    from analysis import facts
 
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     stale = []
