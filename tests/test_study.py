@@ -90,3 +90,22 @@ def test_every_untested_claim_says_what_it_needs(rows):
     }
     assert lacking <= set(NEEDS), lacking - set(NEEDS)
     assert not set(NEEDS) & set(RULES), "a claim with a rule is still listed as needing one"
+
+
+def test_every_claim_names_the_command_that_makes_its_evidence():
+    """claims.csv's `rerun`: a command of this package for every testable claim (its
+    module exists), and the sweep's and the scaled θ's claims their own flags."""
+    import csv
+    import importlib.util
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    with open(os.path.join(root, "results", "study", "claims.csv"), encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    for row in rows:
+        if row["verdict"] == "not testable here":
+            continue
+        words = row["rerun"].split()
+        assert words[:2] == ["python", "-m"], row["id"]
+        assert importlib.util.find_spec(words[2]) is not None, row["rerun"]
+    by_id = {r["id"]: r["rerun"] for r in rows}
+    assert by_id["NAC-1"].endswith("--sweep --resume") and by_id["NAC-5"].endswith("--scaled")

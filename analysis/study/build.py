@@ -43,7 +43,29 @@ CLAIM_FIELDS = (
     "evidence",
     "why",
     "numbers",
+    "rerun",
 )
+# The command that makes a claim's evidence again, by the catalog's evidence family (then
+# `python -m analysis.study` judges it); claims whose runs a flag of the family's command
+# makes name that flag.
+RERUN = {
+    "cem_grid": "python -m baselines.experiments.cem_study --out=results/study/runs",
+    "pole": "python -m baselines.experiments.pole_claims --output_dir=results/study/pole --seeds=5",
+    "crawler": "python -m baselines.experiments.crawler_experiments "
+    "--output_dir=results/study/crawler --seeds=5",
+    "tokic": "python -m baselines.experiments.study_evidence",
+    "cem_toy": "python -m baselines.experiments.study_evidence",
+    "cpg": "python -m baselines.experiments.study_evidence",
+    "nac": "python -m baselines.experiments.nac_experiments --output_dir=results/study/nac "
+    "--seeds=5",
+    "none": "",
+}
+_NAC_SWEEP = RERUN["nac"] + " --sweep --resume"
+_NAC_SCALED = RERUN["nac"] + " --scaled"
+RERUN_OF_CLAIM = {
+    **dict.fromkeys(("NAC-1", "NAC-2a", "NAC-7"), _NAC_SWEEP),
+    **dict.fromkeys(("NAC-4b", "NAC-5", "NAC-6"), _NAC_SCALED),
+}
 
 
 def judge(rows: list[dict], ev: Evidence) -> list[dict]:
@@ -62,6 +84,7 @@ def judge(rows: list[dict], ev: Evidence) -> list[dict]:
             "verdict": done[row["id"]].verdict,
             "evidence": done[row["id"]].evidence,
             "why": done[row["id"]].why,
+            "rerun": RERUN_OF_CLAIM.get(row["id"], RERUN[row["evidence"]]),
         }
         for row in rows
     ]
