@@ -237,8 +237,13 @@ def dmp_policy(theta: np.ndarray, phases: np.ndarray, sigma: float, rng=None):
 def evaluate_policy(
     task: str, theta: np.ndarray, seeds, steps: int = 1000, fall_penalty: float = 1.0
 ) -> dict:
-    """Mean reward per step of the deterministic DMP policy (u = F) over initial states."""
-    rewards, falls = [], 0
+    """Mean reward per step of the deterministic DMP policy (u = F) over initial states.
+
+    Returns:
+      `reward_per_step` (a fall's penalty included), `per_seed`, `falls`, and
+      `task_reward_per_step`: the task's own reward per step, without the penalty.
+    """
+    rewards, plain, falls = [], [], 0
     for seed in seeds:
         env = cpg_suite.load(task, task_kwargs={"random": int(seed)})
         pattern = cpg.CPG("hand_tuned")
@@ -251,12 +256,18 @@ def evaluate_policy(
             total += ts.reward
             n += 1
             if ts.last():
-                if ts.discount == 0.0:
-                    falls += 1
-                    total -= fall_penalty
                 break
+        plain.append(total / n)
+        if ts.last() and ts.discount == 0.0:
+            falls += 1
+            total -= fall_penalty
         rewards.append(total / n)
-    return {"reward_per_step": float(np.mean(rewards)), "per_seed": rewards, "falls": falls}
+    return {
+        "reward_per_step": float(np.mean(rewards)),
+        "per_seed": rewards,
+        "falls": falls,
+        "task_reward_per_step": float(np.mean(plain)),
+    }
 
 
 @dataclasses.dataclass(frozen=True)

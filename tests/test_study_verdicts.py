@@ -178,31 +178,55 @@ def test_a_sweep_point_short_of_seeds_is_missing_evidence(tmp_path):
         chapter5.sweep_runs(ev, "nofix")
 
 
-def _write_scaled(root, change: float, rewards: list[float], fall_from: float) -> Evidence:
+def _point(alpha: float, change: float, rewards: list[float], fall_from: float, falls: int):
+    """A sweep point of `nac_scaled.json`: five runs alike, `falls` of whose learned
+    policies fall; the COP reward (no fall penalty) equals the reward."""
     runs = []
     for seed in range(5):
         scaled = [
-            {"c": c, "reward_per_step": r, "falls": int(c >= fall_from)}
+            {"c": c, "reward_per_step": r, "task_reward_per_step": r, "falls": int(c >= fall_from)}
             for c, r in zip((1.0, 2.0, 5.0, 10.0, 20.0, 50.0), rewards)
         ]
-        runs.append({"seed": seed, "hip_roll_change": change, "scaled": scaled})
-    found = {"theta_zero": {"reward_per_step": -0.05, "falls": 0}, "runs": runs}
+        runs.append(
+            {
+                "seed": seed,
+                "hip_roll_change": change,
+                "learned_falls": int(seed < falls),
+                "scaled": scaled,
+            }
+        )
+    return {"alpha": alpha, "eps_a": 1e-6, "runs": runs}
+
+
+def _write_scaled(root, points: list[dict]) -> Evidence:
+    zero = {"reward_per_step": -0.05, "task_reward_per_step": -0.05, "falls": 0}
     (root / "study" / "nac").mkdir(parents=True)
+    found = {"theta_zero": zero, "points": points}
     (root / "study" / "nac" / "nac_scaled.json").write_text(json.dumps(found))
     return Evidence(results=str(root))
 
 
 def test_the_scaled_theta_rules(tmp_path):
-    """NAC-4b/5/6 on made-up scaled trials: a small term whose gait worsens and falls at
-    c ≥ 20 (NAC-4b and NAC-5 hold; the reward drops > 10 % before the fall: NAC-6 fails)."""
+    """NAC-4b/5/6 on made-up scaled trials, judged at the largest α whose learned gaits
+    stand (α 10 here: α 100's fall): a small term whose gait worsens and falls at c ≥ 20
+    (NAC-4b and NAC-5 hold; the reward drops > 10 %: NAC-6 fails)."""
     from analysis.study import chapter5
 
-    ev = _write_scaled(tmp_path, 0.05, [-0.051, -0.052, -0.06, -0.07, -0.2, -0.5], 20.0)
-    assert chapter5._c_star(chapter5.scaled(ev)["runs"][0]) == 5.0
+    worsening = [-0.051, -0.052, -0.06, -0.07, -0.2, -0.5]
+    ev = _write_scaled(
+        tmp_path,
+        [
+            _point(1.0, 0.01, [-0.05] * 6, 99.0, 0),
+            _point(10.0, 0.05, worsening, 20.0, 1),
+            _point(100.0, 0.9, [-0.05] * 6, 1.0, 3),
+        ],
+    )
+    found = chapter5.scaled(ev)
+    assert found["alpha"] == 10.0 and chapter5._c_star(found["runs"][0]) == 5.0
     assert chapter5.nac_4b(ev).verdict == v.HOLDS
     assert chapter5.nac_5(ev).verdict == v.HOLDS
     assert chapter5.nac_6(ev).verdict == v.FAILS
-    flat = _write_scaled(tmp_path / "flat", 0.5, [-0.0501] * 6, 99.0)
+    flat = _write_scaled(tmp_path / "flat", [_point(1.0, 0.5, [-0.0501] * 6, 99.0, 0)])
     assert chapter5.nac_4b(flat).verdict == v.FAILS
     assert chapter5.nac_5(flat).verdict == v.FAILS  # never worse by a fall
     assert chapter5.nac_6(flat).verdict == v.HOLDS

@@ -41,12 +41,14 @@ READINGS = {
     "CPG-8": "does not hold for two of three on our robot: the compass amplitude raised to 10° "
     "makes it fall, the hip balancing amplitude raised to 16° lessens the sway; the knee "
     "amplitude lifts the foot higher, as said",
-    "NAC-4b": "a constant the thesis does not give: the actor's step α (100 here) lets θ grow "
-    "until the learned term is 0.6-1.0 times the CPG's own hip-roll rate (RMS); the thesis' "
-    "learned term stayed small",
-    "NAC-5": "does not hold here: the learned θ's gait falls already at c = 1 in 3 of 5 "
-    "seeds, and scaled up further two seeds stop falling with a better COP reward than the "
-    "CPG alone's",
+    "NAC-5": "does not hold at α 10, whose learned gaits stand: scaled up to 50 times, the "
+    "learned term makes 1 of 5 gaits worse and fall; 3 of 5 do not fall at c = 50, with a COP "
+    "reward as good as the CPG alone's or better (cause not examined; the roll joints at "
+    "their limits is a guess)",
+    "NAC-1": "a model difference or constants the thesis does not give: without the fixes "
+    "|θ| stays below 320 at all six sweep points, no higher than with them; our basis holds the "
+    "CPG's targets (rad) and phases, and the actor steps only when w is steady (10° over 50 "
+    "steps), either of which may keep the inversion tame",
     "CEM-6a": "a model difference, cause open: the means of elites 3 and 4 never fell two "
     "rounds running in our runs, with or without noise",
     "CEM-6b": "a model difference, cause open: elites 3 and 4 fall no more often than 1 and 2 "

@@ -280,8 +280,9 @@ def run_experiments(settings: NACExperimentSettings) -> list[str]:
     return lines
 
 
-# Claims NAC-4b, NAC-5 and NAC-6: the learned θ of each fixes run scaled by c, its gait
-# judged by the COP reward and falls, and how far it moves the left hip-roll rate.
+# Claims NAC-4b, NAC-5 and NAC-6: the learned θ of each fixes run (at each α of the
+# sweep) scaled by c, its gait judged by the COP reward and falls, and how far it moves
+# the left hip-roll rate.
 SCALES = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0)
 PER_CYCLE = 200  # phases a cycle at which the hip-roll rates are compared
 
@@ -302,13 +303,16 @@ def hip_roll_change(theta: np.ndarray) -> float:
 
 def scaled_evidence(settings: NACExperimentSettings) -> dict:
     """The fixes runs' θ scaled by each of `SCALES`, evaluated as `nac.evaluate_policy` does
-    after learning (its initial states, its fall penalty), beside θ = 0.
+    after learning (its initial states, its fall penalty), beside θ = 0, at each step size
+    α of the sweep (ε_A as BASE's): the thesis gives no α, and how far θ moves the gait
+    depends on it.
 
     Writes `<output_dir>/nac_scaled.json`.
 
     Returns:
-      {"scales", "theta_zero": {reward_per_step, falls}, "runs": [{seed, hip_roll_change,
-      "scaled": [{c, reward_per_step, falls}]}]}.
+      {"scales", "theta_zero": evaluation, "points": [{alpha, eps_a, "runs": [{seed,
+      hip_roll_change, learned_falls, "scaled": [{c, **evaluation}]}]}]}, an evaluation
+      being {reward_per_step, task_reward_per_step, falls}.
 
     Raises:
       FileNotFoundError: If a fixes run has no theta.json.
@@ -318,17 +322,28 @@ def scaled_evidence(settings: NACExperimentSettings) -> dict:
 
     def evaluate(theta):
         found = nac.evaluate_policy(base.task, theta, seeds, fall_penalty=penalty)
-        return {"reward_per_step": found["reward_per_step"], "falls": found["falls"]}
+        keys = ("reward_per_step", "task_reward_per_step", "falls")
+        return {k: found[k] for k in keys}
 
-    out = {"scales": list(SCALES), "theta_zero": evaluate(np.zeros(cpg.N_KERNELS)), "runs": []}
-    for seed in progress.track(range(settings.seeds), desc="scaled θ", unit="run"):
-        run = run_settings("fixes", seed, settings)
-        path = os.path.join(run.output_dir, "nac", run.task, run.run_name, "theta.json")
-        theta = np.asarray(runs.read_json(path)["theta"], dtype=np.float64)
-        scaled = [{"c": c, **evaluate(c * theta)} for c in SCALES]
-        out["runs"].append(
-            {"seed": seed, "hip_roll_change": hip_roll_change(theta), "scaled": scaled}
+    out = {"scales": list(SCALES), "theta_zero": evaluate(np.zeros(cpg.N_KERNELS)), "points": []}
+    points = [(alpha, BASE["eps_a"]) for alpha in sorted({a for a, _ in SWEEP})]
+    jobs = [(point, seed) for point in points for seed in range(settings.seeds)]
+    found: dict = {}
+    for point, seed in progress.track(jobs, desc="scaled θ", unit="run"):
+        run = run_settings("fixes", seed, settings, point)
+        folder = os.path.join(run.output_dir, "nac", run.task, run.run_name)
+        theta = np.asarray(runs.read_json(os.path.join(folder, "theta.json"))["theta"])
+        learned = runs.read_json(os.path.join(folder, "summary.json"))
+        found.setdefault(point, []).append(
+            {
+                "seed": seed,
+                "hip_roll_change": hip_roll_change(theta),
+                "learned_falls": learned["falls_after"],
+                "scaled": [{"c": c, **evaluate(c * theta)} for c in SCALES],
+            }
         )
+    for (alpha, eps_a), done in found.items():
+        out["points"].append({"alpha": alpha, "eps_a": eps_a, "runs": done})
     runs.write_json(os.path.join(settings.output_dir, "nac_scaled.json"), out)
     return out
 
@@ -338,7 +353,8 @@ def main(argv):
     settings = cli.settings_from_flags(NACExperimentSettings)
     if settings.scaled:
         found = scaled_evidence(settings)
-        print(f"θ scaled by {SCALES} in {len(found['runs'])} runs -> nac_scaled.json")
+        count = sum(len(p["runs"]) for p in found["points"])
+        print(f"θ scaled by {SCALES} in {count} runs -> nac_scaled.json")
         return
     try:
         lines = run_experiments(settings)
