@@ -279,3 +279,27 @@ def test_config_command_reruns_the_run(tmp_path):
     )
     assert again.returncode == 0, again.stderr
     assert _without_wall(json.loads((run_dir / "summary.json").read_text())) == _without_wall(first)
+
+
+def test_a_rounds_distances_are_logged_cheapest_first_as_the_elite_is_chosen():
+    """progress.csv's distances_by_cost_m: the order CEM's `tell` ranks samples in (a failed
+    trial last, ties in sample order), so its first `elite` are the elite (claim CEM-13b)."""
+    from cpg_suite.harness import rounds
+
+    distance = np.array([0.5, 2.0, -0.1, 1.0, 3.0])
+    costs = np.array([-0.5, -2.0, np.nan, -2.0, np.inf])
+    text = rounds.distances_by_cost(distance, costs)
+    assert [float(x) for x in text.split(";")] == [2.0, 1.0, 0.5, -0.1, 3.0]
+
+
+def test_a_resumed_progress_file_keeps_its_own_columns(tmp_path):
+    """A run resumed from a progress.csv written before a column was added appends rows
+    under the file's own header, the new column left out."""
+    from cpg_suite.harness import runs
+
+    path = tmp_path / "progress.csv"
+    with runs.ProgressCSV(str(path), ["round", "best"]) as f:
+        f.append({"round": 1, "best": 0.5})
+    with runs.ProgressCSV(str(path), ["round", "best", "new"], truncate=False) as f:
+        f.append({"round": 2, "best": 0.7, "new": "x"})
+    assert path.read_text().splitlines() == ["round,best", "1,0.5", "2,0.7"]

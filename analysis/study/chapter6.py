@@ -438,6 +438,28 @@ def cem_13a(ev: Evidence) -> v.Verdict:
     )
 
 
+@rule("CEM-13b")
+def cem_13b(ev: Evidence) -> v.Verdict:
+    runs = ev.cem("K10_n0.8_e2")
+    if any("distances_by_cost_m" not in r.progress for r in runs):
+        raise MissingEvidence(
+            "K10_n0.8_e2: runs without the rounds' distances by cost (progress.csv's "
+            "distances_by_cost_m; python -m baselines.experiments.cem_study "
+            "--settings=K10_n0.8_e2)"
+        )
+    shares = []
+    for r in runs:
+        ranked = [[float(d) for d in str(x).split(";")] for x in r.progress["distances_by_cost_m"]]
+        elites = np.array([np.mean(d[: r.elite]) for d in ranked])
+        means = r.progress["mean_distance_m"].to_numpy(dtype=float)
+        shares.append(float(np.mean(means[1:] < elites[:-1])))
+    text = (
+        "share of rounds whose mean vector walked less far than the previous round's elites, "
+        "per seed: " + ", ".join(f"{x:.2f}" for x in shares)
+    )
+    return v.majority([x > 0.5 for x in shares], text + "; above one half")
+
+
 @rule("CEM-14a")
 def cem_14a(ev: Evidence) -> v.Verdict:
     flags = values(ev, "K10_n0.8_e2", lambda r: rounds_to(r, best(r) / 2) <= 10)

@@ -76,6 +76,4 @@ READINGS = {
 
 # What a testable claim without a rule yet needs: its evidence is not produced by any
 # experiment of the project so far.
-NEEDS = {
-    "CEM-13b": "each round's elite distances (the runs log the round's best trial and mean only)",
-}
+NEEDS = {}

@@ -45,6 +45,7 @@ PROGRESS_FIELDS = [
     "steps_per_s",
     "wall_s",
     "validation_m",
+    "distances_by_cost_m",
 ]
 
 
@@ -215,7 +216,16 @@ def _progress_row(totals, result, distance, fell, costs, k, sigma, has_mean, ela
         "sim_steps": totals["sim_steps"],
         "steps_per_s": round(result.sim_steps / elapsed) if elapsed > 0 else 0,
         "wall_s": round(totals["wall_s"], 3),
+        "distances_by_cost_m": distances_by_cost(distance, costs),
     }
+
+
+def distances_by_cost(distance: np.ndarray, costs: np.ndarray) -> str:
+    """The round's candidates' distances (m), cheapest first as an optimizer ranks them (a
+    failed trial's cost last; ties in sample order), joined by ";": the elite of CEM are the
+    first `elite` (claim CEM-13b compares them with the next round's mean)."""
+    order = np.argsort(np.where(np.isfinite(costs), costs, np.inf), kind="stable")
+    return ";".join(repr(float(d)) for d in distance[order])
 
 
 def round_line(row: dict, trials: int) -> str:

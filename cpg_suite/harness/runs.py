@@ -181,9 +181,18 @@ class ProgressCSV:
     """Append-only CSV, one row per round or episode, flushed after every row."""
 
     def __init__(self, path: str, fieldnames: list[str], truncate: bool = True):
+        """Args:
+        path: The CSV file.
+        fieldnames: Its columns.
+        truncate: Start the file afresh (else append; a file written with other columns
+          keeps its own, the new ones left out, so a resumed run's rows stay aligned).
+        """
         self.path = path
         self.fieldnames = list(fieldnames)
         exists = os.path.exists(path) and os.path.getsize(path) > 0
+        if exists and not truncate:
+            with open(path, newline="", encoding="utf-8") as f:
+                self.fieldnames = next(csv.reader(f))
         self._file = open(
             path, "w" if truncate or not exists else "a", newline="", encoding="utf-8"
         )
