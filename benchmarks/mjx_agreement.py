@@ -34,7 +34,7 @@ import numpy as np
 from absl import flags
 
 import cpg_suite
-from cpg_suite import cli, cpg, darwin
+from cpg_suite import cli, cpg, darwin, darwin_pose
 from cpg_suite.evaluation.gait import evaluate_gait, parse_params
 from cpg_suite.mjx import walk
 
@@ -196,7 +196,7 @@ def cpu_perturbed_trial(amplitudes: np.ndarray, seed: int, steps: int, eps: floa
     physics = env.physics
     legs = physics.leg_joint_angles() + eps
     with physics.reset_context():
-        physics.set_standing_pose(legs)
+        darwin_pose.set_standing_pose(physics, legs)
     targets = cpg.trajectories(amplitudes, steps, darwin.CONTROL_TIMESTEP)
     start = physics.torso_position()
     fall_step = None

@@ -43,7 +43,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 import cpg_suite
-from cpg_suite import base, darwin, electrical
+from cpg_suite import base, darwin, darwin_recording, electrical
 
 WALK_TASKS = tuple(t for t in cpg_suite.TASK_IDS if t.startswith("darwin_walk"))
 
@@ -116,12 +116,13 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self._torso_pos = np.zeros((self.num_envs, 3))
         self.n_sub = int(round(first.control_timestep() / first.physics.timestep()))
         # Every robot's servo forces and joint velocities after each physics step of the
-        # control step, recorded by its physics into its row (`Physics.record_steps_into`),
-        # and the supply currents computed from them for all robots at once.
+        # control step, recorded by its physics into its row
+        # (`darwin_recording.record_steps_into`), and the supply currents computed from them
+        # for all robots at once.
         self._step_force = np.zeros((self.num_envs, self.n_sub, model.nu))
         self._step_qvel = np.zeros((self.num_envs, self.n_sub, model.nv))
         for i, env in enumerate(self.envs):
-            env.physics.record_steps_into(self._step_force[i], self._step_qvel[i])
+            darwin_recording.record_steps_into(env.physics, self._step_force[i], self._step_qvel[i])
         self._servo_dofs = first.physics.servo_dofs()
         self._damping = np.zeros((self.num_envs, 1, len(self._servo_dofs)))  # at each reset
         self._meter = electrical.SupplyMeter((self.num_envs, self.n_sub), len(self._servo_dofs))
@@ -289,7 +290,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
     def _add_supply(self, stepped: np.ndarray) -> None:
         """The supply currents of this control step's physics steps, for every robot at
         once (`electrical.SupplyMeter`: each robot's the same bits as its own task's
-        `supply_currents`), into the tasks' monitors of the robots `stepped`."""
+        `darwin_recording.supply_currents`), into the tasks' monitors of the robots `stepped`."""
         velocity = np.take(self._step_qvel, self._servo_dofs, axis=2)
         currents = self._meter(self._step_force, velocity, self._damping)
         for i in stepped:
@@ -320,7 +321,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
                 data.xfrc_applied[self._torso, :3] = push
             base.clear_invalid_state_warnings(data)
             env = self.envs[i]
-            env.physics.substeps(self.n_sub, finish=True)  # servo forces recorded
+            darwin_recording.substeps(env.physics, self.n_sub, finish=True)  # forces recorded
             bad = base.invalid_state(data)
             if not bad:
                 mujoco.mj_step1(model, data)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import cpg_suite
-from cpg_suite import cpg, darwin
+from cpg_suite import cpg, darwin, darwin_contacts, darwin_pose
 from cpg_suite.evaluation.gait import evaluate_gait
 
 
@@ -40,7 +40,7 @@ def test_twenty_joints_with_servos(physics):
 
 
 def test_standing_height_and_leg_segments(physics):
-    physics.set_standing_pose(np.zeros(12), darwin.ARM_POSE)
+    darwin_pose.set_standing_pose(physics, np.zeros(12), darwin.ARM_POSE)
     # Straight legs: torso origin 0.3417 m above the sole plane
     # (docs/darwin_op_model.md#dimensions).
     assert physics.torso_height() == pytest.approx(0.3417, abs=0.002)
@@ -58,7 +58,7 @@ def test_standing_height_and_leg_segments(physics):
     # (thesis Sec. 5.1, docs/darwin_op_model.md#dimensions).
     pose = darwin.ARM_POSE.copy()
     pose[-1] = 0.785
-    physics.set_standing_pose(np.zeros(12), pose)
+    darwin_pose.set_standing_pose(physics, np.zeros(12), pose)
     head = physics.model.name2id("head", "geom")
     top = physics.data.geom_xpos[head][2] + physics.model.geom_size[head][0]
     assert top == pytest.approx(0.455, abs=0.01)
@@ -69,7 +69,7 @@ def test_joint_signs_match_the_facts_sheet(physics):
     for joint, foot, forward in (("LegUpperL", "foot_l", True), ("LegUpperR", "foot_r", False)):
         angles = np.zeros(12)
         angles[cpg.LEG_JOINTS.index(joint)] = 0.3
-        physics.set_standing_pose(np.zeros(12))
+        darwin_pose.set_standing_pose(physics, np.zeros(12))
         x0 = _body(physics, foot)[0]
         physics.data.qpos[physics.model.jnt_qposadr[physics.model.name2id(joint, "joint")]] = 0.3
         mj.mj_kinematics(physics.model.ptr, physics.data.ptr)
@@ -78,7 +78,7 @@ def test_joint_signs_match_the_facts_sheet(physics):
 
 def _sole_tilt_deg(physics, leg_angles):
     """Tilt of each sole from horizontal with the torso held upright (kinematics only)."""
-    physics.set_standing_pose(leg_angles)
+    darwin_pose.set_standing_pose(physics, leg_angles)
     z = [physics.named.data.xmat[f"foot_{s}"].reshape(3, 3)[:, 2] for s in ("l", "r")]
     return np.degrees(np.arccos(np.clip([v[2] for v in z], -1, 1)))
 
@@ -130,9 +130,9 @@ def test_legs_mirror_each_other(physics):
     # Kinematics: the right foot mirrors the left foot (y -> -y) half a cycle later.
     angles = cpg.to_joint_angles(z)
     for t in range(600, 700, 10):
-        physics.set_standing_pose(angles[t])
+        darwin_pose.set_standing_pose(physics, angles[t])
         right = _body(physics, "foot_r") - _body(physics, "torso")
-        physics.set_standing_pose(angles[t - half])
+        darwin_pose.set_standing_pose(physics, angles[t - half])
         left = _body(physics, "foot_l") - _body(physics, "torso")
         np.testing.assert_allclose(right, left * [1, -1, 1], atol=2e-3)
 
@@ -144,7 +144,7 @@ def test_standing_centre_of_pressure_inside_the_soles():
     hold = physics.targets_to_action(env.task.posture)
     for _ in range(125):  # 2 s
         ts = env.step(hold)
-    cop, force = physics.centres_of_pressure()
+    cop, force = darwin_contacts.centres_of_pressure(physics)
     assert np.all(force > 2.0)  # both feet carry weight
     assert force.sum() == pytest.approx(physics.model.body_mass.sum() * 9.81, rel=0.05)
     for foot, side in enumerate(("l", "r")):
@@ -256,7 +256,7 @@ def test_centre_of_pressure_matches_mj_contact_force():
             foot = physics._foot_index[other]
             force_ref[foot] += f6[0]
             weighted[foot] += f6[0] * data.contact.pos[i]
-        cop, force = physics.centres_of_pressure()
+        cop, force = darwin_contacts.centres_of_pressure(physics)
         np.testing.assert_allclose(force, force_ref, rtol=1e-12, atol=1e-12)
         for foot in (0, 1):
             if force_ref[foot] > 0:
@@ -278,7 +278,7 @@ def test_reading_the_foot_loads_leaves_the_trajectory_alone():
             env.physics.step(8)
             env.task.after_step(env.physics)
             if read_loads:
-                env.physics.centres_of_pressure()
+                darwin_contacts.centres_of_pressure(env.physics)
             states.append(env.physics.data.qpos.copy())
         return np.array(states)
 

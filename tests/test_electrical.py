@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import cpg_suite
-from cpg_suite import cpg, electrical
+from cpg_suite import cpg, darwin_recording, electrical
 from cpg_suite.evaluation import closed_loop, open_loop
 from cpg_suite.protocol import score
 
@@ -89,7 +89,7 @@ def test_energy_is_copper_loss_plus_the_motors_work_over_a_walking_trial():
     electric = copper = work = 0.0
     for action in physics.targets_to_action(targets[0]):
         env.step(action)
-        force, velocity = physics.servo_steps()
+        force, velocity = darwin_recording.servo_steps(physics)
         damping = physics.servo_damping()
         electric += float(np.sum(electrical.input_power(force, velocity, damping))) * DT
         copper += float(np.sum(electrical.copper_loss(force, velocity, damping))) * DT

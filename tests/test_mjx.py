@@ -22,7 +22,15 @@ import jax.numpy as jnp  # noqa: E402
 import mujoco  # noqa: E402
 
 import cpg_suite  # noqa: E402
-from cpg_suite import cpg, darwin, electrical, perturbations, residual  # noqa: E402
+from cpg_suite import (  # noqa: E402
+    cpg,
+    darwin,
+    darwin_perturb,
+    darwin_pose,
+    electrical,
+    perturbations,
+    residual,
+)
 from cpg_suite.mjx import modulated, physics, walk  # noqa: E402
 
 SEED = 3  # CPU task seed of the comparisons.
@@ -131,7 +139,7 @@ def test_box_plane_contacts_match_mujoco():
     tilt = np.deg2rad(0.6)  # about the y axis: the toes lower than the heels
     data.qpos[root + 3 : root + 7] = [np.cos(tilt / 2), 0.0, np.sin(tilt / 2), 0.0]
     mujoco.mj_kinematics(model, data.ptr)
-    lowest = min(cpu.physics._lowest_corner(g) for g in env._feet)
+    lowest = min(darwin_pose.lowest_corner(cpu.physics, g) for g in env._feet)
     # The deepest corner 2.5 mm into the floor: MuJoCo C finds 7 corners below it, 0.2 to
     # 2.5 mm deep, of which MJX's 1 mm skin depth keeps 4.
     data.qpos[root + 2] -= lowest + 0.0025
@@ -204,7 +212,7 @@ def test_episode_model_matches_cpu_randomization(joints, episode_model):
 
 
 def test_reset_matches_cpu_standing_pose(resets):
-    """MJX's reset places the robot as `set_standing_pose` does for the same posture."""
+    """MJX's reset places the robot as `darwin_pose.set_standing_pose` does for the same posture."""
     states, _ = resets
     env = walk.WalkEnv("darwin_walk_randomized")
     cpu, _ = _cpu_env()
@@ -214,7 +222,7 @@ def test_reset_matches_cpu_standing_pose(resets):
         params = {k: np.asarray(v[i]) for k, v in states.params._asdict().items()}
         cpu.task._apply_parameters(physics, params)
         with physics.reset_context():
-            physics.set_standing_pose(legs)
+            darwin_pose.set_standing_pose(physics, legs)
         np.testing.assert_allclose(states.data.qpos[i], physics.data.qpos, atol=1e-12)
         obs = _flat(cpu.task.get_observation(physics))
         np.testing.assert_allclose(_without_touch(states.obs[i]), obs[:38], atol=ATOL)
@@ -328,7 +336,7 @@ def test_randomized_and_pushed_steps_match_cpu(joints, episode_model):
     schedule = [(int(s), 6, np.array([3.0, 1.0, 0.0])) for s in pushes.start]
     actions = _gait_actions(physics, 20)
     for t in range(20):
-        physics.set_torso_push(perturbations.push_force(schedule, t))
+        darwin_perturb.set_torso_push(physics, perturbations.push_force(schedule, t))
         ts = cpu.step(actions[t])
         state = step(state, actions[t])
         np.testing.assert_allclose(_without_touch(state.obs), _flat(ts.observation)[:38], atol=ATOL)

@@ -26,7 +26,14 @@ pytest.importorskip("warp")
 import jax.numpy as jnp  # noqa: E402
 
 import cpg_suite  # noqa: E402
-from cpg_suite import cpg, darwin, electrical, perturbations, residual  # noqa: E402
+from cpg_suite import (  # noqa: E402
+    cpg,
+    darwin,
+    darwin_perturb,
+    electrical,
+    perturbations,
+    residual,
+)
 from cpg_suite.mjx import training, walk  # noqa: E402
 
 SEED = 3  # CPU task seed of the comparisons.
@@ -126,7 +133,7 @@ def test_warp_episode_parameters_and_pushes_act_as_on_the_cpu(warp):
     schedule = [(int(s), 6, np.array([3.0, 1.0, 0.0])) for s in pushes.start]
     actions = _gait_actions(physics, 20)
     for t in range(20):
-        physics.set_torso_push(perturbations.push_force(schedule, t))
+        darwin_perturb.set_torso_push(physics, perturbations.push_force(schedule, t))
         ts = cpu.step(actions[t])
         state = step(state, actions[t])
         _assert_close_per_reading(state.obs, _flat(ts.observation), DRAWN_TOLERANCES)

@@ -39,7 +39,16 @@ import numpy as np
 from absl import flags
 
 import cpg_suite
-from cpg_suite import cli, cpg, electrical, evaluation, feedback, progress, protocol
+from cpg_suite import (
+    cli,
+    cpg,
+    darwin_recording,
+    electrical,
+    evaluation,
+    feedback,
+    progress,
+    protocol,
+)
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
 from cpg_suite.evaluation import gait, ray_backend
 from cpg_suite.evaluation import quality as gait_quality
@@ -377,7 +386,7 @@ def control_step(action, task, physics, n_sub: int, t: int, records: list, recor
       n_sub: Physics steps per control step.
       t: The control step (0-based).
       records: Extended with `record`'s value after each physics step; without `record`,
-        given the step's gait-quality inputs as one chunk (`Physics.sensor_steps`).
+        given the step's gait-quality inputs as one chunk (`darwin_recording.sensor_steps`).
       record: Called with the physics after each physics step.
 
     Returns:
@@ -388,10 +397,10 @@ def control_step(action, task, physics, n_sub: int, t: int, records: list, recor
     task.before_step(action, physics)
     clear_invalid_state_warnings(data)
     if record is None:
-        physics.substeps(n_sub, sensors=True)
-        records.append(physics.sensor_steps())
+        darwin_recording.substeps(physics, n_sub, sensors=True)
+        records.append(darwin_recording.sensor_steps(physics))
     else:
-        records += physics.substeps(n_sub, record=record)
+        records += darwin_recording.substeps(physics, n_sub, record=record)
     if invalid_state(data):
         return None, (t + 1, FALL), None
     mujoco.mj_step1(model, data)  # positions and velocities for the observation

@@ -1,0 +1,123 @@
+"""The DARwIn-OP's feet on the floor: each foot's load and centre of pressure, and the
+balance task's reward from them (`darwin.Physics`'s floor and feet addresses).
+
+A stance foot carries more than 5 % of the body weight (`STANCE_FRACTION`); the balance
+reward is −(mean over stance feet of the horizontal distance from the foot's centre of
+pressure to its sole centre), m, 0 when no foot is in stance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco as mj
+import numpy as np
+from dm_control import mujoco
+
+STANCE_FRACTION = 0.05  # of body weight: a foot carrying more is a stance foot.
+
+
+def foot_loads(physics: mujoco.Physics) -> tuple[list[float], list[list[float]]]:
+    """Normal force of each foot and the force-weighted sum of its contact points.
+
+    The normal force of a contact is the sum of its four pyramid-edge forces (condim 3,
+    pyramidal cone: checked when the model is loaded, `darwin_checks.check_model`), as
+    `mj_contactForce` computes it; a plain loop over the few contacts is the fastest way on
+    this hot path.
+
+    dm_control ends each step with `mj_step1`, which finds the contacts of the new state
+    but does not solve for their forces: `efc_force` then holds whatever the arena held
+    (it differed between processes). So the forces are solved here first
+    (`mj_forwardSkip` from the velocity stage, sensors skipped); the next step solves
+    them again from scratch, so the trajectory does not change (tests/test_darwin.py).
+
+    Args:
+      physics: A `darwin.Physics`.
+
+    Returns:
+      `(force, weighted)`: the (left, right) normal forces, N, and their force-weighted
+      sums of contact positions, N·m, as Python lists.
+    """
+    data = physics.data.ptr
+    mj.mj_forwardSkip(physics.model.ptr, data, mj.mjtStage.mjSTAGE_VEL, 1)
+    force = [0.0, 0.0]
+    weighted = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    if data.ncon:
+        contacts = data.contact
+        efc = data.efc_force.tolist()
+        floor, feet = physics._floor, physics._foot_index
+        for (g0, g1), adr, pos in zip(
+            contacts.geom.tolist(), contacts.efc_address.tolist(), contacts.pos.tolist()
+        ):
+            foot = feet.get(g1) if g0 == floor else feet.get(g0) if g1 == floor else None
+            if foot is None or adr < 0:
+                continue
+            normal = efc[adr] + efc[adr + 1] + efc[adr + 2] + efc[adr + 3]
+            if normal > 0.0:
+                force[foot] += normal
+                w = weighted[foot]
+                w[0] += normal * pos[0]
+                w[1] += normal * pos[1]
+                w[2] += normal * pos[2]
+    return force, weighted
+
+
+def centres_of_pressure(physics: mujoco.Physics) -> tuple[np.ndarray, np.ndarray]:
+    """Centre of pressure and normal force of each foot, from its floor contacts.
+
+    Args:
+      physics: A `darwin.Physics`.
+
+    Returns:
+      `(cop, force)`: cop (2, 3), m, NaN for a foot without contact; force (2,), N.
+    """
+    force, weighted = foot_loads(physics)
+    cop = np.full((2, 3), np.nan)
+    for foot in (0, 1):
+        if force[foot] > 0.0:
+            cop[foot] = np.array(weighted[foot]) / force[foot]
+    return cop, np.array(force)
+
+
+def cop_offsets(physics: mujoco.Physics) -> tuple[np.ndarray, np.ndarray]:
+    """Horizontal distance from each foot's COP to its sole centre, and the stance mask.
+
+    Args:
+      physics: A `darwin.Physics`.
+
+    Returns:
+      `(distance, stance)`: distance (2,), m (NaN without contact); stance (2,) bool, a
+      foot carrying more than 5 % of the body weight.
+    """
+    distance, stance = _cop_offsets(physics)
+    return np.array(distance), np.array(stance)
+
+
+def _cop_offsets(physics: mujoco.Physics) -> tuple[list[float], list[bool]]:
+    """`cop_offsets` as Python lists (the balance reward's hot path)."""
+    force, weighted = foot_loads(physics)
+    soles = physics.data.site_xpos[physics._soles].tolist()
+    threshold = STANCE_FRACTION * physics._weight
+    distance, stance = [math.nan, math.nan], [False, False]
+    for foot in (0, 1):
+        f = force[foot]
+        if f > 0.0:
+            distance[foot] = math.hypot(
+                weighted[foot][0] / f - soles[foot][0], weighted[foot][1] / f - soles[foot][1]
+            )
+            stance[foot] = f > threshold
+    return distance, stance
+
+
+def balance_reward(physics: mujoco.Physics) -> float:
+    """The balance task's reward.
+
+    Args:
+      physics: A `darwin.Physics`.
+
+    Returns:
+      −(mean over stance feet of the COP distance to the sole centre), m; 0 without.
+    """
+    distance, stance = _cop_offsets(physics)
+    offsets = [d for d, s in zip(distance, stance) if s]
+    return -sum(offsets) / len(offsets) if offsets else 0.0
