@@ -93,8 +93,20 @@ QUICK_SEEDS = 5  # test seeds per tier in a quick verification
 # The project's list of trusted pickles (tracked with it, beside the shipped runs): the
 # SHA-256 and path of every Stable-Baselines3 file under `ARTIFACTS`, as `sha256sum` writes
 # them (`sha256sum -c results/protocol/trusted_artifacts.txt` in the repository checks it).
-_REPOSITORY = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 TRUSTED_LIST = os.path.join("results", "protocol", "trusted_artifacts.txt")
+_CHECKOUT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def repository() -> str:
+    """The repository whose shipped runs and trusted list are the project's: the checkout
+    this module sits in, or, for an installed package (pip install .), the working
+    directory where it holds the list (a checkout's root); else the module's folder."""
+    for root in (_CHECKOUT, os.getcwd()):
+        if os.path.isfile(os.path.join(root, TRUSTED_LIST)):
+            return root
+    return _CHECKOUT
+
+
 _TRUSTED_LINE = re.compile(r"^(?P<digest>[0-9a-f]{64}) [ *](?P<path>.+)$")
 SB3_FILES = (admission.SB3_MODEL, admission.SB3_NORMALIZER)
 
@@ -140,7 +152,7 @@ def trusted_digests(path: str | None = None) -> frozenset[str]:
     Raises:
       ValueError: On a line that is not `<sha256>  <path>`.
     """
-    path = os.path.join(_REPOSITORY, TRUSTED_LIST) if path is None else path
+    path = os.path.join(repository(), TRUSTED_LIST) if path is None else path
     if not os.path.isfile(path):
         return frozenset()
     digests = set()
@@ -161,12 +173,13 @@ def trusted_artifacts_text(artifacts: str | None = None) -> str:
     Args:
       artifacts: A folder of shipped runs (None: the project's, `ARTIFACTS`).
     """
-    artifacts = os.path.join(_REPOSITORY, ARTIFACTS) if artifacts is None else artifacts
+    root = repository()
+    artifacts = os.path.join(root, ARTIFACTS) if artifacts is None else artifacts
     lines = []
     for dirpath, _, names in os.walk(artifacts):
         for name in sorted(set(names) & set(SB3_FILES)):
             path = os.path.join(dirpath, name)
-            relative = os.path.relpath(path, _REPOSITORY).replace(os.sep, "/")
+            relative = os.path.relpath(path, root).replace(os.sep, "/")
             lines.append((relative, f"{file_digest(path)}  {relative}"))
     return "".join(f"{line}\n" for _, line in sorted(lines))
 
@@ -837,13 +850,13 @@ def main(argv: list[str]) -> None:
             )
     cli.check(os.path.isdir(values.artifacts), f"--artifacts={values.artifacts} is not a directory")
     if values.write_trusted:
-        inside = os.path.relpath(os.path.abspath(values.artifacts), _REPOSITORY)
+        inside = os.path.relpath(os.path.abspath(values.artifacts), repository())
         cli.check(
             not inside.startswith(os.pardir),
             f"--write_trusted lists the project's runs: --artifacts={values.artifacts} is "
             "outside the repository",
         )
-        path = os.path.join(_REPOSITORY, TRUSTED_LIST)
+        path = os.path.join(repository(), TRUSTED_LIST)
         runs.write_text(path, trusted_artifacts_text(values.artifacts))
         progress.write(f"wrote {path}")
         return
