@@ -1,4 +1,4 @@
-r"""Leaderboard and claims tables from run directories (docs/architecture.md).
+r"""Leaderboard tables from run directories (docs/architecture.md).
 
   python -m analysis.leaderboard --runs=DIR --out=leaderboard.csv
 
@@ -8,17 +8,14 @@ Reads every `<DIR>/**/<method>/<task>/<run_name>/summary.json` (run files only) 
   `n`, `mean`, `std`, 95 % t-interval, `best`, the published value and its source, the
   ratio to it and whether it is beaten. A configuration is the run name without its
   `_seed<k>` suffix.
-* `claims.csv` beside it: each published claim this data can speak to, the measured
-  evidence and whether it holds (`yes` / `no`), and `untested` for the rest. Claims
-  already judged by an experiment script (`pole_claims.csv`, found anywhere under DIR)
-  are carried over.
 * `darwin_leaderboard.csv` beside it: the DARwIn-OP board (docs/protocol.md#ranking) of the
   runs it admits (docs/protocol.md#admission: what verify needs to score a run again, a
   card made under the protocol's card settings that the run's trials produce, no copies),
   and `darwin_not_admitted.csv`: every other DARwIn-OP run with a one-line reason; the
   same pair `_v<n>` for each earlier benchmark version whose cards the runs keep.
 
-Missing or malformed run files are skipped and listed on stderr, never a crash.
+Missing or malformed run files are skipped and listed on stderr, never a crash. The
+study's claims are judged in one place, `python -m analysis.study` (results/study).
 """
 
 from __future__ import annotations
@@ -74,7 +71,6 @@ LEADERBOARD_FIELDS = [
     "published",
     "published_source",
 ]
-CLAIM_FIELDS = ["claim_id", "statement", "evidence", "holds"]
 
 
 PRESET_METHOD = (
@@ -560,175 +556,6 @@ def _compare(upper: dict, lower: dict) -> None:
     upper["tied_with_next"] = bool(low <= 0.5 <= high)
 
 
-def _carried_claims(root: str) -> list[dict]:
-    claims = []
-    for dirpath, filenames in walk_sorted(root):
-        if "pole_claims.csv" in filenames:
-            with open(os.path.join(dirpath, "pole_claims.csv"), encoding="utf-8") as f:
-                for row in csv.DictReader(f):
-                    claims.append({k: row.get(k, "") for k in CLAIM_FIELDS})
-    return claims
-
-
-def claim_rows(found: list[dict], root: str) -> list[dict]:
-    """The claims the runs can speak to, and the rest as untested."""
-    by = defaultdict(list)
-    for run in found:
-        by[(run["task"], run["method"], run["config"])].append(run["summary"])
-    claims = {c["claim_id"]: c for c in _carried_claims(root)}
-
-    def put(cid, evidence, holds):
-        claims[cid] = {
-            "claim_id": cid,
-            "statement": published.CLAIMS[cid],
-            "evidence": evidence,
-            "holds": "yes" if holds else "no",
-        }
-
-    for judge in (tokic_claims, cem_claims, nac_claims, crawler_claims):
-        judge(by, put)
-    for cid, statement in published.CLAIMS.items():
-        claims.setdefault(
-            cid, {"claim_id": cid, "statement": statement, "evidence": "", "holds": "untested"}
-        )
-    return sorted(claims.values(), key=lambda c: c["claim_id"])
-
-
-def tokic_claims(by: dict, put) -> None:
-    """CR-1: value iteration on the Tokic model converges to the 6-state cycle."""
-    tokic = [
-        s
-        for (t, m, _), ss in by.items()
-        if t == "tokic" and m == "value_iteration"
-        for s in ss
-        if s.get("converged")
-    ]
-    if tokic:
-        lengths = [s["cycle_length"] for s in tokic]
-        put(
-            "CR-1",
-            f"value iteration on tokic (γ 0.9, converged): cycle lengths {lengths}",
-            all(n == 6 for n in lengths),
-        )
-
-
-def _mean_best(by: dict, config: str) -> float:
-    values = [s["best_distance_m"] for s in by.get(("darwin_walk", "cem", config), [])]
-    return float(np.mean(values)) if values else float("nan")
-
-
-def cem_claims(by: dict, put) -> None:
-    """CEM-N37 (elite 2 is best) and CEM-N32/33 (noise 1.0 and 0.2 do worse than 0.8)."""
-    elite = {}
-    for noise in ("0", "0.8"):
-        means = {e: _mean_best(by, f"K10_n{noise}_e{e}") for e in (1, 2, 3, 4)}
-        if not all(np.isnan(v) for v in means.values()):
-            elite[noise] = means
-    if elite:
-        winners = {
-            n: max(m, key=lambda e: -np.inf if np.isnan(m[e]) else m[e]) for n, m in elite.items()
-        }
-        put(
-            "CEM-N37",
-            "best elite size by mean best distance, K 10: "
-            + ", ".join(f"noise {n}: elite {w} ({elite[n][w]:.3f} m)" for n, w in winners.items()),
-            all(w == 2 for w in winners.values()),
-        )
-    for cid, cfg in (("CEM-N32", "K10_n1_e2"), ("CEM-N33", "K10_n0.2_e2")):
-        a, b = _mean_best(by, "K10_n0.8_e2"), _mean_best(by, cfg)
-        if not (np.isnan(a) or np.isnan(b)):
-            put(cid, f"mean best distance {cfg}: {b:.3f} m vs noise 0.8: {a:.3f} m", b < a)
-
-
-def nac_claims(by: dict, put) -> None:
-    """NAC-1 (θ blows up without the fixes) and NAC-3 (no significant reward change)."""
-    nofix = by.get(("darwin_balance", "nac", "nofix"), [])
-    fixes = by.get(("darwin_balance", "nac", "fixes"), [])
-    if nofix:
-        norms = [s["theta_norm_max"] for s in nofix]
-        put(
-            "NAC-1",
-            f"no normalisation, no ridge: max |θ| median {np.median(norms):.3g}, "
-            f"diverged {sum(s['diverged'] for s in nofix)}/{len(nofix)}",
-            sum(s["diverged"] for s in nofix) > len(nofix) / 2,
-        )
-    delta = [
-        s["reward_after"] - s["reward_before"] for s in fixes if s.get("reward_after") is not None
-    ]
-    if delta:
-        mean, _, low, high = _stats(delta)
-        put(
-            "NAC-3",
-            f"normalisation + ridge: reward change {mean:+.5f} m/step, 95% CI "
-            f"({low:+.5f}, {high:+.5f}) over {len(delta)} seeds",
-            low <= 0.0 <= high,
-        )
-
-
-def crawler_claims(by: dict, put) -> None:
-    """Claims about real-time learning on the crawler, from `crawler_experiments` runs."""
-
-    def runs_of(method, config=None):
-        return by.get(("crawler_walk", method, config or method), [])
-
-    def disp(method, config=None):
-        values = [s["displacement_m"] for s in runs_of(method, config)]
-        return float(np.mean(values)) if values else None
-
-    vi = runs_of("value_iteration")
-    if vi:
-        lengths = [s["cycle_length"] for s in vi]
-        joints = [s["cycle_joints"] for s in vi]
-        put(
-            "CR-11",
-            f"real-time value iteration: cycle lengths {lengths}, joints {joints}",
-            sum(n == 2 and j == 1 for n, j in zip(lengths, joints)) > len(vi) / 2,
-        )
-    learners = ("value_iteration", "q_learning", "sarsa", "sarsa_lambda", "td0", "td_lambda")
-    means = {m: disp(m) for m in learners}
-    if all(v is not None for v in means.values()):
-        text = ", ".join(f"{m} {v:+.3f}" for m, v in means.items())
-        put(
-            "CR-13",
-            f"displacement of the frozen greedy policy over 100 moves (m): {text}",
-            all(v > 0.05 for v in means.values()),
-        )
-        weak = max(means["q_learning"], means["sarsa"], means["sarsa_lambda"])
-        put(
-            "CR-14",
-            f"ordering VI > TD(0) > TD(λ) > Q, SARSA, SARSA(λ) by displacement: {text}",
-            means["value_iteration"] > means["td0"] > means["td_lambda"] > weak,
-        )
-    eps = runs_of("value_iteration", "value_iteration_eps0.1")
-    if eps:
-        found = sum(s["displacement_m"] > 0.05 for s in eps)
-        put(
-            "CR-7",
-            f"constant ε 0.1: forward cycle in {found}/{len(eps)} runs "
-            f"(mean {disp('value_iteration', 'value_iteration_eps0.1'):+.3f} m / 100 moves)",
-            found <= len(eps) / 2,
-        )
-    stochastic = runs_of("value_iteration", "stochastic0.2")
-    if stochastic:
-        found = sum(s["displacement_m"] > 0.05 for s in stochastic)
-        lengths = [s["cycle_length"] for s in stochastic]
-        put(
-            "CR-16",
-            f"moves fail with p 0.2: forward in {found}/{len(stochastic)} runs, "
-            f"cycle lengths {lengths}",
-            found > len(stochastic) / 2 and sum(n == 4 for n in lengths) > len(lengths) / 2,
-        )
-    gathered = runs_of("value_iteration", "explore1000")
-    if gathered and means.get("value_iteration") is not None:
-        g = float(np.mean([s["displacement_m"] for s in gathered]))
-        put(
-            "CR-6",
-            f"model from 1000 random moves then VI: {g:+.3f} m / 100 moves vs real-time "
-            f"VI {means['value_iteration']:+.3f} m (the study: greatly reduced)",
-            g < 0.75 * means["value_iteration"],
-        )
-
-
 def write_csv(path: str, rows: list[dict], fields: list[str]) -> None:
     tmp = path + ".tmp"
     with open(tmp, "w", newline="", encoding="utf-8") as f:
@@ -757,7 +584,7 @@ class LeaderboardSettings:
 
     Attributes:
       runs: The root of the run directories; must be an existing directory.
-      out: The leaderboard CSV; `claims.csv` and `darwin_leaderboard.csv` go beside it.
+      out: The leaderboard CSV; `darwin_leaderboard.csv` goes beside it.
     """
 
     runs: str | None = None
@@ -769,9 +596,9 @@ class LeaderboardSettings:
 
 
 def write_tables(runs: str, out: str) -> str:
-    """Writes the leaderboard, the claims and the DARwIn test-score table of a run tree.
+    """Writes the leaderboard and the DARwIn test-score table of a run tree.
 
-    Writes `out`, and `claims.csv`, `darwin_leaderboard.csv` and `darwin_not_admitted.csv`
+    Writes `out`, and `darwin_leaderboard.csv` and `darwin_not_admitted.csv`
     (the runs the board refuses, with the reason) in the same folder (created if missing),
     and the boards of earlier benchmark versions (`darwin_tables`). Run files that cannot be
     read are skipped and listed on stderr.
@@ -781,7 +608,7 @@ def write_tables(runs: str, out: str) -> str:
       out: The leaderboard CSV path.
 
     Returns:
-      One line saying how many runs, rows and claims went where.
+      One line saying how many runs and rows went where.
 
     Raises:
       ValueError: If `runs` is not a directory.
@@ -790,23 +617,19 @@ def write_tables(runs: str, out: str) -> str:
     check_runs_dir(runs)
     found, skipped = find_runs(runs)
     rows = leaderboard_rows(found)
-    claims = claim_rows(found, runs)
     out_dir = os.path.dirname(os.path.abspath(out))
     os.makedirs(out_dir, exist_ok=True)
     write_csv(out, rows, LEADERBOARD_FIELDS)
-    write_csv(os.path.join(out_dir, "claims.csv"), claims, CLAIM_FIELDS)
     boards = darwin_tables(found)
     for name, table, fields in boards:
         write_csv(os.path.join(out_dir, name), table, fields)
     for line in skipped:
         print(f"skipped: {line}", file=sys.stderr)
-    judged = sum(c["holds"] != "untested" for c in claims)
     darwin, refused = boards[0][1], boards[1][1]
     return (
         f"{len(found)} runs, {len(rows)} leaderboard rows -> {out}; {len(darwin)} DARwIn "
         f"test-score rows -> darwin_leaderboard.csv ({len(refused)} runs not admitted -> "
-        f"darwin_not_admitted.csv); {len(claims)} claims "
-        f"({judged} judged) -> {os.path.join(out_dir, 'claims.csv')}"
+        "darwin_not_admitted.csv)"
     )
 
 
@@ -840,7 +663,7 @@ def define_flags() -> None:
     flags.DEFINE_string(
         "out",
         LeaderboardSettings.out,
-        "Leaderboard CSV path; claims.csv and darwin_leaderboard.csv go beside it.",
+        "Leaderboard CSV path; darwin_leaderboard.csv goes beside it.",
     )
 
 

@@ -14,8 +14,9 @@ Writes into `--out` (PNG, matplotlib; `pip install 'cpg-suite[plots]'`):
   * with `--gaits`: `gaits_filmstrip.png` — the hand-tuned and the best gait side by side,
     a quarter stride between snapshots (thesis Fig. 6.8), and a video of each
     (`hand_tuned.mp4`, `gait_best.mp4`; GIF without ffmpeg), rendered headlessly;
-and `report.md` embedding the figures, the leaderboard and the claims table (computed with
-`analysis.leaderboard` into the same folder). Figures whose data are missing are skipped
+and `report.md` embedding the figures and the leaderboards (computed with
+`analysis.leaderboard` into the same folder). The study's claims are judged in one place,
+`python -m analysis.study` (results/study). Figures whose data are missing are skipped
 and listed in the report; malformed run files are skipped, never a crash.
 """
 
@@ -517,7 +518,7 @@ def _shown_path(path: str) -> str:
 
 
 def _report_lines(runs, found, figures, tables, skipped, refused=()) -> list[str]:
-    rows, darwin, claims = tables
+    rows, darwin = tables
     lines = ["# cpg_suite report", "", f"Runs: `{_shown_path(runs)}` ({len(found)} runs).", ""]
     for title, path in figures:
         lines += [f"## {title}", ""]
@@ -541,12 +542,8 @@ def _report_lines(runs, found, figures, tables, skipped, refused=()) -> list[str
         "",
         _markdown_table(rows, leaderboard.LEADERBOARD_FIELDS),
         "",
-        "## Claims",
-        "",
-        _markdown_table([c for c in claims if c["holds"] != "untested"], leaderboard.CLAIM_FIELDS),
-        "",
-        f"{sum(c['holds'] == 'untested' for c in claims)} further claims untested "
-        "by these runs (see claims.csv).",
+        "The thesis' claims are judged from the study's shipped runs by "
+        "`python -m analysis.study` (results/study/claims.csv).",
         "",
     ]
     if skipped:
@@ -574,7 +571,7 @@ class ReportSettings:
 
 
 def write_report(runs: str, out: str, gaits: bool = False) -> str:
-    """Writes the figures, `report.md`, the leaderboard CSVs and `claims.csv` into `out`.
+    """Writes the figures, `report.md` and the leaderboard CSVs into `out`.
 
     Figures whose data are missing are skipped and listed in the report; malformed run
     files are skipped and listed too. The inputs are read before anything is written.
@@ -600,26 +597,24 @@ def write_report(runs: str, out: str, gaits: bool = False) -> str:
     admitted, refused = leaderboard.admit(found)
     darwin = leaderboard.darwin_rows(admitted)
     history = leaderboard.darwin_tables(found, tuple(leaderboard.history_versions(found)))
-    claims = leaderboard.claim_rows(found, runs)
     _plt()
     os.makedirs(out, exist_ok=True)
     # The test-score figures show the board's runs; with none admitted (a quick
     # reproduction's cards: 2 seeds, short trials), every card, and the report says so.
     board = (admitted, darwin) if darwin else (found, leaderboard.darwin_rows(found))
     figures = _figures(found, board, runs, out, gaits)
-    lines = _report_lines(runs, found, figures, (rows, darwin, claims), skipped, refused)
+    lines = _report_lines(runs, found, figures, (rows, darwin), skipped, refused)
     with open(os.path.join(out, "report.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines))
     for name, table, fields in (
         ("leaderboard.csv", rows, leaderboard.LEADERBOARD_FIELDS),
         ("darwin_leaderboard.csv", darwin, leaderboard.DARWIN_FIELDS),
         ("darwin_not_admitted.csv", refused, leaderboard.NOT_ADMITTED_FIELDS),
-        ("claims.csv", claims, leaderboard.CLAIM_FIELDS),
         *history,
     ):
         leaderboard.write_csv(os.path.join(out, name), table, fields)
     made = [p for _, p in figures if p]
-    return f"{len(made)} figures, report.md, leaderboard CSVs, claims.csv -> {out}"
+    return f"{len(made)} figures, report.md, leaderboard CSVs -> {out}"
 
 
 def check_matplotlib() -> None:

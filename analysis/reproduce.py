@@ -1,4 +1,4 @@
-r"""Reproduce the study's experiments in one command, then the leaderboard, claims and report.
+r"""Reproduce the study's experiments in one command, then the leaderboards and report.
 
   python -m analysis.reproduce --quick --out=DIR     # every experiment, small (minutes)
   python -m analysis.reproduce --full --out=DIR      # the real thing (hours on 2 cores)

@@ -1,4 +1,4 @@
-"""analysis.leaderboard: rows, published values, claims, and bad run files."""
+"""analysis.leaderboard: rows, published values, and bad run files."""
 
 import csv
 import json
@@ -20,7 +20,7 @@ def _read(path):
         return list(csv.DictReader(f))
 
 
-def test_leaderboard_and_claims(tmp_path, capsys):
+def test_leaderboard_rows_and_published_values(tmp_path, capsys):
     runs = tmp_path / "runs"
     for seed, best in enumerate((2.0, 3.0)):
         _run(
@@ -40,9 +40,6 @@ def test_leaderboard_and_claims(tmp_path, capsys):
         )
     (runs / "cem" / "darwin_walk" / "broken_seed0").mkdir()
     (runs / "cem" / "darwin_walk" / "broken_seed0" / "summary.json").write_text("[1, 2")
-    (runs / "pole_claims.csv").write_text(
-        "claim_id,statement,rule,evidence,holds\nPB-8,two actions fail,r,e,yes\n"
-    )
     out = tmp_path / "out" / "leaderboard.csv"
     line = leaderboard.write_tables(str(runs), str(out))
     assert line.startswith("5 runs, ") and str(out) in line
@@ -53,11 +50,7 @@ def test_leaderboard_and_claims(tmp_path, capsys):
     assert float(k50["published"]) == published.TABLE6_3["K50_n0.8_e2"][0]
     assert "CEM-N25" in k50["published_source"] and "Webots, one run" in k50["published_source"]
     assert "beats_published" not in k50 and "ratio_to_published" not in k50
-    claims = {c["claim_id"]: c for c in _read(out.parent / "claims.csv")}
-    assert claims["CR-1"]["holds"] == "yes"
-    assert claims["PB-8"]["holds"] == "yes"  # carried over from pole_claims.csv
-    assert claims["NAC-3"]["holds"] == "untested"
-    assert set(published.CLAIMS) <= set(claims)
+    assert not (out.parent / "claims.csv").exists()  # the claims: analysis.study's alone
     err = capsys.readouterr().err
     assert "broken_seed0" in err
 

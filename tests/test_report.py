@@ -50,5 +50,6 @@ def test_report_from_small_runs(tmp_path):
         assert (out / name).stat().st_size > 5000
         assert f"({name})" in text
     assert "junk_seed9" in text  # listed as skipped
-    assert (out / "leaderboard.csv").exists() and (out / "claims.csv").exists()
+    assert (out / "leaderboard.csv").exists() and not (out / "claims.csv").exists()
+    assert "python -m analysis.study" in text
     assert np.isfinite(float((out / "leaderboard.csv").read_text().splitlines()[1].split(",")[6]))
