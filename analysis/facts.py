@@ -46,9 +46,10 @@ def _summaries(runs: str, pattern: str) -> list[dict]:
     return found
 
 
-def _range(values: list[float]) -> str:
-    low, high = min(values), max(values)
-    return f"{low:.2f}" if f"{low:.2f}" == f"{high:.2f}" else f"{low:.2f}-{high:.2f}"
+def _range(values: list[float], spec: str = ".2f") -> str:
+    """`low-high` as `spec` writes them, or one value where both read the same."""
+    low, high = format(min(values), spec), format(max(values), spec)
+    return low if low == high else f"{low}-{high}"
 
 
 def _test(card: dict) -> float:
@@ -78,9 +79,7 @@ def _validation_range(runs: str, arg: str | None) -> str:
 
 
 def _train_s_range(runs: str, arg: str | None) -> str:
-    seconds = [s["train_wall_s"] for s in _summaries(runs, _required(arg))]
-    low, high = f"{min(seconds):,.0f}", f"{max(seconds):,.0f}"
-    return low if low == high else f"{low}-{high}"
+    return _range([s["train_wall_s"] for s in _summaries(runs, _required(arg))], ",.0f")
 
 
 def _required(arg: str | None) -> str:

@@ -39,7 +39,7 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, portable, progress
-from cpg_suite.harness import grids, interface, optimize, runs
+from cpg_suite.harness import grids, interface, optimize, rounds, runs
 
 # Thesis Table 6.3 (K, noise, elite), plus the variants of Sec. 6.3: the lateral penalty,
 # noise 0.2 / 1.0 (K 10, elite 2) and K = 70 / 100 (elite 2, noise 0.8; "not as good", no
@@ -116,8 +116,7 @@ class CEM:
 
         A NaN or infinite cost is a failed trial: it sorts after every finite cost.
         """
-        costs = np.where(np.isfinite(costs), costs, np.inf)
-        order = np.argsort(costs, kind="stable")
+        order = rounds.ranking(costs)
         elite = np.asarray(samples, dtype=np.float64)[order[: self.elite]]
         weights = np.full(self.elite, 1.0 / self.elite)
         self.mean = portable.weighted_sum(weights, elite)

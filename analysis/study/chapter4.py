@@ -807,11 +807,8 @@ def pb_4d(ev: Evidence) -> v.Verdict:
 def pb_8b(ev: Evidence) -> v.Verdict:
     share = _col(ev, "base", "zero_action_share_last")
     text = f"zero-force share of the last 5000 steps: {[round(float(x), 3) for x in share]}"
-    if sum(share >= 0.1) >= 4:
-        return v.Verdict(v.HOLDS, text)
-    if sum(share < 0.02) >= 4:
-        return v.Verdict(v.FAILS, text, "the learned policy hardly uses the zero force")
-    return v.Verdict(v.INCONCLUSIVE, text, "the seeds split")
+    why = "the learned policy hardly uses the zero force"
+    return v.split(share >= 0.1, share < 0.02, text, why)
 
 
 def _apart(cis: dict) -> bool:

@@ -214,11 +214,8 @@ def nac_4b(ev: Evidence) -> v.Verdict:
         + ", ".join(f"{c:.2f}" for c in change)
         + f" (every α: {others})"
     )
-    if sum(c < 0.1 for c in change) >= 4:
-        return v.Verdict(v.HOLDS, text)
-    if sum(c > 0.3 for c in change) >= 4:
-        return v.Verdict(v.FAILS, text, "the learned term moves the hip-roll rate by > 30 %")
-    return v.Verdict(v.INCONCLUSIVE, text, "the seeds split")
+    why = "the learned term moves the hip-roll rate by > 30 %"
+    return v.split([c < 0.1 for c in change], [c > 0.3 for c in change], text, why)
 
 
 def _scaled_text(found: dict, key: str) -> str:
@@ -259,11 +256,8 @@ def nac_6(ev: Evidence) -> v.Verdict:
         ]
         same.append(bool(changes) and max(changes) <= 0.1)
     text = _scaled_text(found, "task_reward_per_step") + "; within 10 % at every c ≥ c*"
-    if sum(same) >= 4:
-        return v.Verdict(v.HOLDS, f"{text}: {sum(same)} of 5 seeds")
-    if sum(not s for s in same) >= 4:
-        return v.Verdict(v.FAILS, f"{text}: {sum(same)} of 5 seeds", "the reward dropped > 10 %")
-    return v.Verdict(v.INCONCLUSIVE, f"{text}: {sum(same)} of 5 seeds", "the seeds split")
+    text += f": {sum(same)} of 5 seeds"
+    return v.split(same, [not s for s in same], text, "the reward dropped > 10 %")
 
 
 # CEM against the NAC (Sec. 6.3 / 7.1.2): judged here, where the NAC's evidence is.

@@ -649,8 +649,5 @@ def cpg_7(ev: Evidence) -> v.Verdict:
         f"steps between left touchdowns: hand-tuned {hand:.1f}, learned K10_n0.8_e2 "
         f"{_list(learned, '.1f')}"
     )
-    if sum(c > 0.10 for c in change) >= 0.8 * len(change):
-        return v.Verdict(v.HOLDS, text)
-    if sum(c < 0.02 for c in change) >= 0.8 * len(change):
-        return v.Verdict(v.FAILS, text, "the CPG's frequency sets the step's duration here")
-    return v.Verdict(v.INCONCLUSIVE, text, "the seeds split")
+    why = "the CPG's frequency sets the step's duration here"
+    return v.split([c > 0.10 for c in change], [c < 0.02 for c in change], text, why)

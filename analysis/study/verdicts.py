@@ -106,14 +106,25 @@ def similar(a: Sequence[float], b: Sequence[float], label: str, tolerance: float
 
 
 def majority(flags: Sequence[bool], label: str) -> Verdict:
-    """Holds if at least 4 in 5 seeds show it, fails if at most 1 in 5 do, else mixed
-    (over n seeds: ≥ 0.8 n and ≤ 0.2 n)."""
+    """Holds if at least 4 in 5 seeds show it, fails if at most 1 in 5 do, else
+    inconclusive (over n seeds: ≥ 0.8 n and ≤ 0.2 n)."""
     k, n = int(sum(bool(f) for f in flags)), len(flags)
-    text = f"{label}: {k} of {n} seeds"
-    if k >= 0.8 * n:
+    return split(
+        flags,
+        [not f for f in flags],
+        f"{label}: {k} of {n} seeds",
+        "it does not happen in our runs",
+    )
+
+
+def split(holds: Sequence[bool], fails: Sequence[bool], text: str, why: str) -> Verdict:
+    """A claim judged seed by seed against two thresholds: holds if at least 4 in 5 seeds
+    meet the claim's (`holds`), fails if at least 4 in 5 meet the opposite one (`fails`,
+    with `why`), else inconclusive: the seeds split."""
+    if sum(bool(h) for h in holds) >= 0.8 * len(holds):
         return Verdict(HOLDS, text)
-    if k <= 0.2 * n:
-        return Verdict(FAILS, text, "it does not happen in our runs")
+    if sum(bool(f) for f in fails) >= 0.8 * len(fails):
+        return Verdict(FAILS, text, why)
     return Verdict(INCONCLUSIVE, text, "the seeds split")
 
 

@@ -220,12 +220,16 @@ def _progress_row(totals, result, distance, fell, costs, k, sigma, has_mean, ela
     }
 
 
+def ranking(costs: np.ndarray) -> np.ndarray:
+    """The candidates' indices, cheapest first: a failed trial's (NaN or infinite) cost
+    after every finite one, ties in sample order (how CEM picks its elite)."""
+    return np.argsort(np.where(np.isfinite(costs), costs, np.inf), kind="stable")
+
+
 def distances_by_cost(distance: np.ndarray, costs: np.ndarray) -> str:
-    """The round's candidates' distances (m), cheapest first as an optimizer ranks them (a
-    failed trial's cost last; ties in sample order), joined by ";": the elite of CEM are the
-    first `elite` (claim CEM-13b compares them with the next round's mean)."""
-    order = np.argsort(np.where(np.isfinite(costs), costs, np.inf), kind="stable")
-    return ";".join(repr(float(d)) for d in distance[order])
+    """The round's candidates' distances (m) in `ranking` order, joined by ";": the elite
+    of CEM are the first `elite` (claim CEM-13b compares them with the next round's mean)."""
+    return ";".join(repr(float(d)) for d in distance[ranking(costs)])
 
 
 def round_line(row: dict, trials: int) -> str:

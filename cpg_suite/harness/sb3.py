@@ -44,6 +44,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 import cpg_suite
 from cpg_suite import darwin, electrical, portable, protocol, residual, vector
+from cpg_suite.harness import exported
 
 # The SB3 algorithm of each policy learner's method name (its run directories' second level).
 ALGORITHMS = {"ppo": "PPO"}
@@ -266,13 +267,11 @@ class PortableActor:
     and their last bits differ from CPU to CPU; in a walking robot's trial a last bit grows
     into a different fall. This actor computes the same function portably: the raw
     observation normalized as `VecNormalize` does (clipped, then rounded to float32, which
-    is what SB3 hands torch), the policy network's layers in float64 with
-    `portable.pairwise_matmul` and `portable.tanh`, the Gaussian's mean clipped to the
+    is what SB3 hands torch), the policy network's layers in float64 (`exported.mlp`, as
+    a policy exported from MJX runs) with `portable.tanh`, the Gaussian's mean clipped to the
     action box. It agrees with torch's float32 `predict` to about 1e-6 (a test) and with
     itself on every CPU, row by row, whatever the batch.
     """
-
-    _ROWS = 8  # observations per pass through the network (cache-sized; each row its own)
 
     def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize):
         """Args:
@@ -303,18 +302,10 @@ class PortableActor:
 
     def __call__(self, flat: np.ndarray) -> np.ndarray:
         """(N, A) float64 actions for (N, D) raw flat observations."""
-        flat = np.asarray(flat, np.float64)
-        if len(flat) > self._ROWS:
-            rows = range(0, len(flat), self._ROWS)
-            return np.concatenate([self(flat[i : i + self._ROWS]) for i in rows])
-        x = flat
+        x = np.asarray(flat, np.float64)
         if self.clip_obs is not None:
-            x = np.clip((flat - self.mean) / self.scale, -self.clip_obs, self.clip_obs)
-        x = x.astype(np.float32).astype(np.float64)
-        for i, (weight, bias) in enumerate(self.layers):
-            x = portable.pairwise_matmul(x, weight) + bias
-            if i < len(self.layers) - 1:
-                x = portable.tanh(x)
+            x = np.clip((x - self.mean) / self.scale, -self.clip_obs, self.clip_obs)
+        x = exported.mlp(x.astype(np.float32).astype(np.float64), self.layers, portable.tanh)
         return np.clip(x, self.low, self.high)
 
 
