@@ -68,15 +68,40 @@ def test_the_tracked_files_equal_a_rebuild(tmp_path):
 
 
 def test_every_reading_explains_a_claim_that_did_not_hold():
-    """A reading of why a claim failed is kept only while the claim fails (or is mixed)."""
+    """A reading of whose a failure is stays only while the claim fails (or is mixed); a
+    reason a part is not reproduced here only while it is, and it names the thesis' line."""
     import csv
 
-    from analysis.study.readings import READINGS
+    from analysis.study.readings import NOT_REPRODUCED, READINGS
 
     with open(os.path.join(TRACKED, "claims.csv"), encoding="utf-8") as f:
         verdicts = {r["id"]: r["verdict"] for r in csv.DictReader(f)}
     stale = {i: verdicts.get(i) for i in READINGS if verdicts.get(i) not in ("fails", "mixed")}
     assert not stale, f"readings of claims that no longer fail: {stale}"
+    stale = {i: verdicts.get(i) for i in NOT_REPRODUCED if verdicts.get(i) != "not reproduced here"}
+    assert not stale, f"'not reproduced here' reasons of claims that are not: {stale}"
+    assert not set(READINGS) & set(NOT_REPRODUCED)
+    import re
+
+    unsourced = [i for i, t in NOT_REPRODUCED.items() if not re.search(r"L\d{3,4}", t)]
+    assert not unsourced, f"not reproduced here without the thesis' line: {unsourced}"
+
+
+def test_the_summary_counts_fails_apart_from_not_reproduced():
+    """The summary line and the report count "fails" and "not reproduced here" apart, for
+    the whole claims and for the parts; a revised criterion's first verdict is kept."""
+    import csv
+
+    with open(os.path.join(TRACKED, "claims.csv"), encoding="utf-8") as f:
+        claims = list(csv.DictReader(f))
+    with open(os.path.join(TRACKED, "report.md"), encoding="utf-8") as f:
+        report = f.read()
+    whole, parts = build.counts(claims), build.leaves(claims)
+    assert f"{sum(whole.values())} distinct claims: {build.tally(whole)}." in report
+    assert f"claims without parts: {build.tally(parts)}." in report
+    assert parts["not reproduced here"] > 0 and parts["fails"] > 0
+    first = {c["id"]: c["first_verdict"] for c in claims if c["first_verdict"]}
+    assert first["NAC-5"].startswith("fails") and first["CR-5a"].startswith("fails")
 
 
 def test_every_untested_claim_says_what_it_needs(rows):
@@ -109,3 +134,39 @@ def test_every_claim_names_the_command_that_makes_its_evidence():
         assert importlib.util.find_spec(words[2]) is not None, row["rerun"]
     by_id = {r["id"]: r["rerun"] for r in rows}
     assert by_id["NAC-1"].endswith("--sweep --resume") and by_id["NAC-5"].endswith("--scaled")
+
+
+def test_without_matplotlib_the_rebuild_refuses_in_one_line(tmp_path):
+    """`python -m analysis.study` without the plots extra would drop the figure from
+    report.md and so differ from the tracked file: it says so in one line (exit 2) and
+    writes nothing."""
+    import subprocess
+    import sys
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = tmp_path / "study"
+    hide = (
+        "import runpy, sys; sys.modules['matplotlib'] = None; "
+        f"sys.argv = ['analysis.study', '--out={out}']; "
+        "runpy.run_module('analysis.study', run_name='__main__', alter_sys=True)"
+    )
+    found = subprocess.run(
+        [sys.executable, "-c", hide], cwd=root, capture_output=True, text=True, timeout=300
+    )
+    assert found.returncode == 2, found.stderr
+    lines = found.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), found.stderr
+    assert "matplotlib" in lines[0] and "pip install '.[plots]'" in lines[0]
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_without_matplotlib_build_writes_nothing(tmp_path, monkeypatch):
+    """The library call refuses too (`report.MissingExtra`), before any file is written."""
+    import sys
+
+    from analysis.study import report
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    with pytest.raises(report.MissingExtra, match=r"pip install '\.\[plots\]'"):
+        build.build(str(tmp_path))
+    assert not any(tmp_path.iterdir())

@@ -11,13 +11,17 @@ import os
 
 from absl import flags
 
-from analysis.study import build
+from analysis.study import build, report
 from analysis.study.evidence import Evidence
 from cpg_suite import cli
 
 
 def main(argv: list[str]) -> None:
     del argv
+    try:
+        report.require_matplotlib()
+    except report.MissingExtra as e:
+        raise cli.UsageError(str(e)) from None
     ev = Evidence()
     for path in (ev.study, ev.protocol):
         cli.check(os.path.isdir(path), f"{path} not found: run from the repository's root")

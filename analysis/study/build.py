@@ -6,15 +6,18 @@ r"""Rebuilds the study's verdicts, the published numbers beside ours, and the re
 Reads the catalog (`analysis/catalog.csv`), the published numbers (`analysis/published.csv`)
 and the shipped run files (`analysis.study.evidence`); trains nothing. Writes:
 
-  claims.csv   a row per catalog claim and part: its verdict (holds, fails, mixed,
-               inconclusive, not testable here), the evidence line, and why where it
-               did not hold;
+  claims.csv   a row per catalog claim and part: its verdict (holds, fails, not
+               reproduced here, mixed, inconclusive, not testable here), the evidence line,
+               why where it did not hold (for "not reproduced here": what of our model or
+               of what the thesis leaves open the outcome turns on), and where a criterion
+               was revised after its runs, the verdict it gave as first written;
   numbers.csv  a row per published number: ours from the same setting and measure with
                its interval and seeds, or its role (a setting, a robot fact) or the reason
                we have none;
   report.md    each claim with its verdict and evidence, by chapter, the numbers table,
                and the cost-per-round figure (`cem_cost_per_round.png`, thesis
-               Figs. 6.2-6.6, with matplotlib).
+               Figs. 6.2-6.6; matplotlib, the `plots` extra, is required: without it
+               nothing is written).
 """
 
 from __future__ import annotations
@@ -24,10 +27,10 @@ import dataclasses
 import os
 from collections import Counter
 
-from analysis.study import catalog, chapter4, chapter5, chapter6, numbers  # noqa: F401
+from analysis.study import catalog, chapter4, chapter5, chapter6, numbers, revisions  # noqa: F401
 from analysis.study import verdicts as v
 from analysis.study.evidence import Evidence, MissingEvidence
-from analysis.study.readings import NEEDS, READINGS
+from analysis.study.readings import NEEDS, NOT_REPRODUCED, READINGS
 from analysis.study.registry import RULES
 
 OUT = os.path.join("results", "study")
@@ -42,6 +45,7 @@ CLAIM_FIELDS = (
     "verdict",
     "evidence",
     "why",
+    "first_verdict",
     "numbers",
     "rerun",
 )
@@ -84,6 +88,7 @@ def judge(rows: list[dict], ev: Evidence) -> list[dict]:
             "verdict": done[row["id"]].verdict,
             "evidence": done[row["id"]].evidence,
             "why": done[row["id"]].why,
+            "first_verdict": revisions.text(ev, row["id"]),
             "rerun": RERUN_OF_CLAIM.get(row["id"], RERUN[row["evidence"]]),
         }
         for row in rows
@@ -100,6 +105,8 @@ def _judge_one(row: dict, ev: Evidence) -> v.Verdict:
         verdict = rule(ev)
     except MissingEvidence as e:
         return v.Verdict(v.INCONCLUSIVE, "", f"runs missing: {e}")
+    if verdict.verdict == v.FAILS and row["id"] in NOT_REPRODUCED:
+        return v.Verdict(v.NOT_REPRODUCED, verdict.evidence, NOT_REPRODUCED[row["id"]])
     if verdict.verdict in (v.FAILS, v.MIXED) and row["id"] in READINGS:
         return v.Verdict(verdict.verdict, verdict.evidence, READINGS[row["id"]])
     return verdict
@@ -131,14 +138,30 @@ def counts(claims: list[dict]) -> Counter:
     return Counter(c["verdict"] for c in claims if not c["parent"])
 
 
+def leaves(claims: list[dict]) -> Counter:
+    """Verdicts of what a rule judges: the parts, and the claims without parts."""
+    wholes = {c["parent"] for c in claims if c["parent"]}
+    return Counter(c["verdict"] for c in claims if c["id"] not in wholes)
+
+
+def tally(found: Counter) -> str:
+    """'8 fails, 38 holds, ...' in the order of `verdicts.VERDICTS` (then any other)."""
+    order = [*v.VERDICTS, UNTESTED]
+    return ", ".join(f"{found[k]} {k}" for k in sorted(found, key=order.index) if found[k])
+
+
 def build(out: str = OUT, ev: Evidence | None = None) -> str:
     """Writes claims.csv, numbers.csv and report.md (and the figure) into `out`.
 
     Returns:
       One line: how many claims have each verdict, and where the files are.
+
+    Raises:
+      report.MissingExtra: Without matplotlib, before anything is written.
     """
     from analysis.study import report
 
+    report.require_matplotlib()
     ev = ev or Evidence()
     os.makedirs(out, exist_ok=True)
     rows = catalog.load()
@@ -147,5 +170,8 @@ def build(out: str = OUT, ev: Evidence | None = None) -> str:
     write_csv(os.path.join(out, "claims.csv"), claims, CLAIM_FIELDS)
     write_csv(os.path.join(out, "numbers.csv"), table, numbers.FIELDS)
     report.write(out, claims, table, ev)
-    tally = ", ".join(f"{n} {k}" for k, n in sorted(counts(claims).items()))
-    return f"{sum(counts(claims).values())} claims ({tally}) -> {out}"
+    whole, judged = counts(claims), leaves(claims)
+    return (
+        f"{sum(whole.values())} claims ({tally(whole)}); "
+        f"{sum(judged.values())} parts and single claims ({tally(judged)}) -> {out}"
+    )

@@ -1,4 +1,8 @@
-"""The study's report: each claim with its verdict and evidence, the numbers, the figure."""
+"""The study's report: each claim with its verdict and evidence, the numbers, the figure.
+
+The figure needs matplotlib (the `plots` extra): without it `write` raises
+`MissingExtra` rather than write a report that differs from the tracked one.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +15,23 @@ from analysis.study import chapter6
 from analysis.study.evidence import Evidence, MissingEvidence
 
 FIGURE = "cem_cost_per_round.png"
+PLOTS = "pip install '.[plots]'"
+
+
+class MissingExtra(RuntimeError):
+    """An optional package the report needs is not installed (the message says which)."""
+
+
+def require_matplotlib() -> None:
+    """Raises `MissingExtra` unless matplotlib imports."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError as e:
+        raise MissingExtra(
+            f"the report's figure needs matplotlib, which is not installed: {PLOTS}"
+        ) from e
+
+
 CHAPTERS = {
     "4.1": "Chapter 4.1: the crawler",
     "4.2": "Chapter 4.2: the pole",
@@ -48,7 +69,10 @@ def _claims_lines(claims: list[dict]) -> list[str]:
         ]
         for c in rows:
             name = f"↳ {c['id']}" if c["parent"] else f"**{c['id']}**"
-            cells = (name, c["verdict"], c["statement"], c["evidence"], c["why"])
+            verdict = c["verdict"]
+            if c.get("first_verdict"):
+                verdict += f" (criterion as first written: {c['first_verdict']})"
+            cells = (name, verdict, c["statement"], c["evidence"], c["why"])
             lines.append("| " + " | ".join(_cell(x) for x in cells) + " |")
         lines.append("")
     return lines
@@ -89,15 +113,17 @@ def draw(ev: Evidence, out: str) -> str | None:
     """The mean vector's cost per round, median over seeds (thin: each seed), per panel.
 
     Returns:
-      The figure's path, or None without matplotlib.
-    """
-    try:
-        import matplotlib
+      The figure's path.
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        return None
+    Raises:
+      MissingExtra: Without matplotlib.
+    """
+    require_matplotlib()
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(2, 3, figsize=(13, 7), sharey=True)
     for ax, (figure, title, settings) in zip(axes.ravel(), PANELS):
         for i, setting in enumerate(settings):
@@ -145,22 +171,36 @@ def _compute_lines(ev: Evidence) -> list[str]:
 
 
 def write(out: str, claims: list[dict], table: list[dict], ev: Evidence) -> str:
-    """Writes `report.md` (and the figure) into `out`; returns the report's path."""
-    whole = Counter(c["verdict"] for c in claims if not c["parent"])
-    figure = draw(ev, out)
+    """Writes `report.md` and the figure into `out`; returns the report's path.
+
+    Raises:
+      MissingExtra: Without matplotlib (nothing is written).
+    """
+    from analysis.study.build import counts, leaves, tally
+
+    figure = os.path.basename(draw(ev, out))
+    whole, judged = counts(claims), leaves(claims)
     lines = [
         "# The study, claim by claim",
         "",
         "Made by `python -m analysis.study` from the shipped run files; do not edit "
         "(docs/study.md#claim-by-claim says how each verdict is reached).",
         "",
-        f"{sum(whole.values())} distinct claims: "
-        + ", ".join(f"{n} {k}" for k, n in sorted(whole.items()))
-        + ". A claim's parts (↳) are judged one by one; the whole is mixed where they differ.",
+        f"{sum(whole.values())} distinct claims: {tally(whole)}. A claim's parts (↳) are "
+        "judged one by one; the whole is mixed where they differ. Judged one by one, the "
+        f"{sum(judged.values())} parts and claims without parts: {tally(judged)}.",
+        "",
+        "**fails**: tested in the thesis' setting (as far as the thesis gives it), the claim "
+        "does not hold; its why says whose the failure is. **not reproduced here**: it does "
+        "not hold here, and the outcome turns on something the thesis does not give (a "
+        "constant, a dimension, a definition) or on a named, measured difference between our "
+        "model and the thesis'; its why names it, with the thesis' line (seed Lnnn). Where a "
+        "criterion was revised after its runs, the verdict it gave as first written stands "
+        "beside the verdict.",
+        "",
+        f"![CEM cost per round]({figure})",
         "",
     ]
-    if figure:
-        lines += [f"![CEM cost per round]({FIGURE})", ""]
     lines += _claims_lines(claims) + _numbers_lines(table) + _compute_lines(ev)
     path = os.path.join(out, "report.md")
     with open(path, "w", encoding="utf-8") as f:

@@ -1,6 +1,9 @@
 """Verdicts of the study's claims and the statistics they rest on.
 
-A verdict is one of `VERDICTS`: a claim holds, fails, is mixed (its parts differ),
+A verdict is one of `VERDICTS`: a claim holds, fails (tested in the thesis' setting, it
+does not hold), is not reproduced here (it does not hold here, and the outcome turns on
+something the thesis does not give or on a named, measured difference between our model
+and the thesis': `readings.NOT_REPRODUCED` says which), is mixed (its parts differ),
 inconclusive (the intervals do not decide), or is not testable here (with the reason).
 Comparisons over seeds use the bootstrap of `cpg_suite.protocol.aggregate` (a fixed
 generator seed, so a verdict is the same bits every time).
@@ -15,14 +18,15 @@ import numpy as np
 
 from cpg_suite.protocol import aggregate
 
-HOLDS, FAILS, MIXED, INCONCLUSIVE, UNTESTABLE = (
+HOLDS, FAILS, NOT_REPRODUCED, MIXED, INCONCLUSIVE, UNTESTABLE = (
     "holds",
     "fails",
+    "not reproduced here",
     "mixed",
     "inconclusive",
     "not testable here",
 )
-VERDICTS = (HOLDS, FAILS, MIXED, INCONCLUSIVE, UNTESTABLE)
+VERDICTS = (HOLDS, FAILS, NOT_REPRODUCED, MIXED, INCONCLUSIVE, UNTESTABLE)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -129,16 +133,18 @@ def split(holds: Sequence[bool], fails: Sequence[bool], text: str, why: str) -> 
 
 
 def combine(parts: Sequence[Verdict]) -> str:
-    """A compound claim's verdict from its parts' (the untestable parts left out): holds or
-    fails if all agree, mixed if some hold and some fail, inconclusive otherwise."""
+    """A compound claim's verdict from its parts' (the untestable parts left out): holds,
+    fails or not reproduced here if all agree; fails where some parts fail and the others
+    are not reproduced here (a failure in the thesis' setting decides); mixed if some hold
+    and others fail or are not reproduced here; inconclusive otherwise."""
     tested = {p.verdict for p in parts if p.verdict != UNTESTABLE}
     if not tested:
         return UNTESTABLE
-    if tested == {HOLDS}:
-        return HOLDS
-    if tested == {FAILS}:
+    if len(tested) == 1 and tested <= {HOLDS, FAILS, NOT_REPRODUCED}:
+        return next(iter(tested))
+    if tested == {FAILS, NOT_REPRODUCED}:
         return FAILS
-    if HOLDS in tested and FAILS in tested:
+    if HOLDS in tested and tested & {FAILS, NOT_REPRODUCED}:
         return MIXED
     if MIXED in tested:
         return MIXED
