@@ -8,16 +8,20 @@ Usage mirrors `dm_control.suite`::
 
 Task ids are `<domain>_<task>`; `ALL_TASKS`, `BENCHMARKING` and `TASKS_BY_DOMAIN` hold
 `(domain, task)` pairs as in dm_control. A method of your own needs only this package:
-`cpg_suite.score_gait` / `score_policy` (the test protocol's score card),
+`cpg_suite.score_gait` / `score_policy` (the test protocol's score card; `format_card`
+prints one), `cpg_suite.submit_gait` with a `Submission` (a gait entered on the board),
 `cpg_suite.open_evaluator` (batched trials), `cpg_suite.run_optimizer` with `AskTell`,
 `OptimizerSettings` and `RunOptions` (training, validation and test of an ask/tell
 optimizer); docs/architecture.md#packages-and-data-flow says where everything lives.
 
 Importing the package changes no process-wide state: no environment variables, random
-generators, logging or absl flags, and does not load dm_control: the domains load on first
-use. Rendering uses whatever backend dm_control's `MUJOCO_GL` selects when it loads; on a
-machine without a display set `MUJOCO_GL=egl` (GPU or Mesa EGL) or `MUJOCO_GL=osmesa`
-(software) before then.
+generators, logging, warning filters or absl flags, and does not load dm_control: the
+domains load on first use. Rendering uses whatever backend dm_control's `MUJOCO_GL` selects
+when it loads; on a machine without a display set `MUJOCO_GL=egl` (GPU or Mesa EGL) or
+`MUJOCO_GL=osmesa` (software) before then. Without a display and without `MUJOCO_GL`,
+dm_control's first choice, GLFW, cannot start; the package loads its modules without the
+warning that GLFW prints then (`_import`), so a program that never renders prints nothing,
+and one that renders still hears why it cannot.
 """
 
 from __future__ import annotations
@@ -25,9 +29,13 @@ from __future__ import annotations
 import collections
 import functools
 import importlib
+import importlib.util
 import inspect
 import math
 import numbers
+import os
+import sys
+import warnings
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -53,8 +61,36 @@ _TASK_LISTS = (
 )
 
 
+def _import(module: str) -> Any:
+    """Imports `module`, without GLFW's warning on a machine without a display.
+
+    dm_control chooses its OpenGL backend when it is first imported. With `MUJOCO_GL` unset
+    it tries GLFW first, and on a machine without a display GLFW warns "The DISPLAY
+    environment variable is missing" (and renders nothing). While this import runs, and only
+    then, warnings raised by the `glfw` module are ignored; the warning filters are restored
+    afterwards. With a display or `MUJOCO_GL` set, or once the module is loaded, this is a
+    plain import: a broken display or an explicit `MUJOCO_GL=glfw` still warns.
+
+    Args:
+      module: The module's dotted name.
+
+    Returns:
+      The module.
+    """
+    if (
+        module in sys.modules
+        or "MUJOCO_GL" in os.environ
+        or os.environ.get("DISPLAY")
+        or os.environ.get("WAYLAND_DISPLAY")
+    ):
+        return importlib.import_module(module)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", module=r"glfw\Z")
+        return importlib.import_module(module)
+
+
 def _domains() -> dict[str, Any]:
-    return {name: importlib.import_module(f"cpg_suite.{name}") for name in _DOMAIN_NAMES}
+    return {name: _import(f"cpg_suite.{name}") for name in _DOMAIN_NAMES}
 
 
 def _get_tasks(tag: str | None) -> tuple[tuple[str, str], ...]:
@@ -95,6 +131,9 @@ _PUBLIC = {
     "score_gait": "cpg_suite.protocol.score:score_gait",
     "score_policy": "cpg_suite.protocol.score:score_policy",
     "ScoreSettings": "cpg_suite.protocol.score:ScoreSettings",
+    "format_card": "cpg_suite.protocol.score:format_card",
+    "Submission": "cpg_suite.protocol.submit:Submission",
+    "submit_gait": "cpg_suite.protocol.submit:submit_gait",
     "open_evaluator": "cpg_suite.evaluation:open_evaluator",
     "OptimizerSettings": "cpg_suite.harness.interface:OptimizerSettings",
     "RunOptions": "cpg_suite.harness.runs:RunOptions",
@@ -108,9 +147,11 @@ def __getattr__(name: str) -> Any:
         return _task_lists()[name]
     if name in _PUBLIC:
         module, _, attribute = _PUBLIC[name].partition(":")
-        return getattr(importlib.import_module(module), attribute)
-    if name in _DOMAIN_NAMES:
-        return importlib.import_module(f"cpg_suite.{name}")
+        return getattr(_import(module), attribute)
+    # A submodule: `cpg_suite.darwin`, and `from cpg_suite import darwin` (which asks for the
+    # attribute before it imports the submodule), load through `_import`.
+    if not name.startswith("_") and importlib.util.find_spec(f"cpg_suite.{name}") is not None:
+        return _import(f"cpg_suite.{name}")
     raise AttributeError(f"module 'cpg_suite' has no attribute {name!r}")
 
 

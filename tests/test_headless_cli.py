@@ -6,6 +6,7 @@ output path that cannot be written stops a command before any work, with one lin
 """
 
 import os
+import re
 import subprocess
 import sys
 
@@ -141,3 +142,66 @@ def test_output_checks_create_nothing(tmp_path):
         cli.check_output_file(str(tmp_path), "--out")
     with pytest.raises(cli.UsageError, match="is not a directory"):
         cli.check_output_file(str(tmp_path / "f" / "x.csv"), "--out")
+
+
+# Quiet headless: library use, the submission path and a script print nothing on stderr
+# without a display (dm_control's GLFW warning is ignored while cpg_suite loads it), and
+# loading changes no warning filter of the process.
+_LIBRARY = (
+    "import warnings\nimport cpg_suite\nfilters = list(warnings.filters)\n"
+    "env = cpg_suite.load('darwin_walk'); env.reset(); env.step([0.0] * 12)\n"
+    "assert warnings.filters == filters, 'load changed the warning filters'\n"
+    "print(len(cpg_suite.ALL_TASKS))"
+)
+
+
+def test_library_use_prints_nothing_headless():
+    out = _run("-c", _LIBRARY)
+    assert out.returncode == 0 and out.stderr == "", out.stderr
+    assert int(out.stdout) > 5
+
+
+@pytest.mark.parametrize(
+    "code",
+    [
+        "import cpg_suite; cpg_suite.submit_gait, cpg_suite.format_card",
+        "from cpg_suite.protocol import submit",
+        "from cpg_suite import darwin; darwin.Physics",
+    ],
+)
+def test_the_submission_path_imports_quietly_headless(code):
+    out = _run("-c", code)
+    assert out.returncode == 0 and out.stderr == "", out.stderr
+
+
+def test_submit_command_prints_nothing_headless(tmp_path):
+    out = _run("-m", "cpg_suite.protocol.submit", "--help", cwd=tmp_path)
+    assert out.returncode == 0 and out.stderr == "", out.stderr
+
+
+def test_a_script_prints_nothing_headless(tmp_path):
+    """A user's script, run as a file: the README's pole example."""
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
+        (script, *_) = re.findall(r"```python\n(.*?)```", f.read(), flags=re.S)
+    (tmp_path / "my_pole.py").write_text(script)
+    out = _run(str(tmp_path / "my_pole.py"), cwd=tmp_path)
+    assert out.returncode == 0 and out.stderr == "", out.stderr
+    assert out.stdout.startswith("return ")
+
+
+def test_rendering_still_works_where_a_backend_exists():
+    """With MUJOCO_GL naming a backend that works here, the library renders, quietly."""
+    backends = [
+        b
+        for b in cli._HEADLESS_BACKENDS
+        if _run("-c", cli._PROBE, env={**HEADLESS, "MUJOCO_GL": b}).returncode == 0
+    ]
+    if not backends:
+        pytest.skip("no headless OpenGL backend (EGL, OSMesa) on this machine")
+    code = (
+        "import cpg_suite\nenv = cpg_suite.load('pole_balance'); env.reset()\n"
+        "print(env.physics.render(height=24, width=32).shape)"
+    )
+    out = _run("-c", code, env={**HEADLESS, "MUJOCO_GL": backends[0]})
+    assert out.returncode == 0 and out.stderr == "", out.stderr
+    assert out.stdout.strip() == "(24, 32, 3)"
