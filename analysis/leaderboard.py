@@ -1,6 +1,8 @@
-r"""Leaderboard tables from run directories (docs/architecture.md).
+r"""The leaderboard of a run tree: the DARwIn-OP board (docs/protocol.md#ranking; entering
+it: docs/submit.md) and the study's metrics.
 
-  python -m analysis.leaderboard --runs=DIR --out=leaderboard.csv
+  python -m analysis.leaderboard --runs=DIR --out=board/leaderboard.csv
+  # writes board/leaderboard.csv, board/darwin_leaderboard.csv, board/darwin_not_admitted.csv
 
 Reads every `<DIR>/**/<method>/<task>/<run_name>/summary.json` (run files only) and writes
 
@@ -626,10 +628,13 @@ def write_tables(runs: str, out: str) -> str:
     for line in skipped:
         print(f"skipped: {line}", file=sys.stderr)
     darwin, refused = boards[0][1], boards[1][1]
+    # Each file with the folder it went to, as the user named it.
+    beside = [os.path.join(os.path.dirname(out), name) for name, _, _ in boards]
+    earlier = f"; earlier versions' boards -> {', '.join(beside[2:])}" if beside[2:] else ""
     return (
-        f"{len(found)} runs, {len(rows)} leaderboard rows -> {out}; {len(darwin)} DARwIn "
-        f"test-score rows -> darwin_leaderboard.csv ({len(refused)} runs not admitted -> "
-        "darwin_not_admitted.csv)"
+        f"{len(found)} runs: {len(rows)} rows of the study's metrics -> {out}; "
+        f"{len(darwin)} DARwIn-OP board rows -> {beside[0]} ({len(refused)} runs not admitted "
+        f"-> {beside[1]}){earlier}"
     )
 
 
@@ -659,11 +664,14 @@ def darwin_tables(
 
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
-    flags.DEFINE_string("runs", None, "Root of the run directories (an existing directory).")
+    flags.DEFINE_string(
+        "runs", None, "none: required. Root of the run directories (an existing directory)."
+    )
     flags.DEFINE_string(
         "out",
         LeaderboardSettings.out,
-        "Leaderboard CSV path; darwin_leaderboard.csv goes beside it.",
+        "The study's metrics CSV; the DARwIn-OP board, darwin_leaderboard.csv, and "
+        "darwin_not_admitted.csv go in its folder.",
     )
 
 

@@ -22,6 +22,7 @@ import dataclasses
 import math
 import numbers
 import os
+import re
 import subprocess
 import sys
 from collections.abc import Callable, Sequence
@@ -167,18 +168,56 @@ def _usage(doc: str | None) -> str:
     return "\n\n".join(paragraphs[:2]).strip()
 
 
+# How a flag's help says what leaving it out (default None) means: "none: <meaning>. <help>"
+# at its start, or "(default: <meaning>)" / "(default <meaning>)" anywhere in it.
+_NONE_LEAD = re.compile(r"^none: (?P<meaning>.+?)\.(\s+|$)")
+_NONE_DEFAULT = re.compile(r"\s*\(default:? (?P<meaning>[^)]+)\)")
+_REQUIRED = "must have a value other than None"  # absl's required-flag validator
+
+
+def flag_default(flag: flags.Flag) -> tuple[str, str]:
+    """What a flag's help line shows: its default, in words, and its help text.
+
+    A flag with a default shows it (`[2]`, `[darwin_walk]`, `[""]`). A flag whose default
+    is None shows `[required]` if absl requires it, else `[none: <meaning>]`, the meaning
+    taken from its help ("none: <meaning>. ..." at the start, or "(default: <meaning>)"),
+    and moved out of the help text ("none: required." shows `[required]` too); `[none]` if
+    its help says nothing of it.
+
+    Args:
+      flag: An absl flag.
+
+    Returns:
+      (the default's words, without brackets; the help text on one line).
+    """
+    text = " ".join((flag.help or "").split())
+    if flag.default is not None:
+        shown = flag.default_as_str
+        shown = shown[1:-1] if len(shown) >= 2 and shown[0] == shown[-1] == "'" else shown
+        return (shown if shown else '""'), text
+    if any(_REQUIRED in getattr(v, "message", "") for v in flag.validators):
+        return "required", text
+    for pattern in (_NONE_LEAD, _NONE_DEFAULT):
+        found = pattern.search(text)
+        if found:
+            rest = (text[: found.start()] + text[found.end() :]).strip()
+            rest = rest[:1].upper() + rest[1:]
+            meaning = found.group("meaning").strip()
+            return ("required" if meaning == "required" else f"none: {meaning}"), rest
+    return "none", text
+
+
 def help_text(doc: str | None = None) -> str:
     """One screen of help: the program's usage, then every flag the project defines for
-    it (absl's own are under --helpfull), one line each with its default."""
+    it (absl's own are under --helpfull), one line each with its default (`flag_default`)."""
     lines = [_usage(doc), "", "flags (defaults in brackets; --helpfull lists absl's too):"]
     for module, defined in sorted(flags.FLAGS.flags_by_module_dict().items()):
         dotted = module.split(".")[0] in ("cpg_suite", "baselines", "analysis", "benchmarks")
         if not (dotted or os.path.abspath(module).startswith(_PROJECT)):
             continue
         for flag in sorted(defined, key=lambda f: f.name):
-            default = "" if flag.default is None else f" [{flag.default_as_str.strip(chr(39))}]"
-            text = " ".join((flag.help or "").split())
-            lines.append(f"  --{flag.name}{default}: {text}")
+            default, text = flag_default(flag)
+            lines.append(f"  --{flag.name} [{default}]: {text}")
     return "\n".join(lines) + "\n"
 
 

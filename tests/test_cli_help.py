@@ -1,10 +1,14 @@
 """Every command's --help: one screen, its own flags and the harness flags, exit code 0."""
 
 import os
+import re
 import subprocess
 import sys
 
 import pytest
+from absl import flags
+
+from cpg_suite import cli
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCREEN = 60  # lines
@@ -15,6 +19,11 @@ MAIN_JOBS = (
     "cpg_suite.protocol.verify",
     "baselines.tabular",
 )
+
+
+# A flag's line: `  --name [default]: help`, the default being a value, "required", or
+# "none" with what it means ("none: <meaning>").
+_FLAG_LINE = re.compile(r"^  --\w+ \[(?:[^\]]*|none: [^\]]+)\]: \S")
 
 
 def _programs() -> list[str]:
@@ -48,6 +57,9 @@ def _check(module: str) -> None:
     assert len(lines) <= SCREEN, f"{module} --help: {len(lines)} lines"
     assert "flags (defaults in brackets" in done.stdout
     assert not any(line.startswith("  --verbosity") for line in lines), "absl's own flags shown"
+    flag_lines = lines[lines.index(next(x for x in lines if x.startswith("flags (defaults"))) + 1 :]
+    for line in flag_lines:  # every flag shows its default, or what leaving it out means
+        assert _FLAG_LINE.match(line), f"{module} --help: {line!r}"
 
 
 @pytest.mark.parametrize("module", MAIN_JOBS)
@@ -67,3 +79,56 @@ def test_every_command_help_fits_a_screen():
     assert set(MAIN_JOBS) <= set(programs) and len(programs) > 30
     for module in programs:
         _check(module)
+
+
+def _flag_lines(module: str) -> dict[str, str]:
+    done = _help(module)
+    assert done.returncode == 0, done.stderr[-300:]
+    return {line.split()[0]: line for line in done.stdout.splitlines() if line.startswith("  --")}
+
+
+def test_submit_help_shows_what_each_flag_left_out_means_and_the_budget_rule():
+    shown = _flag_lines("cpg_suite.protocol.submit")
+    for flag in ("--gait", "--policy", "--actions", "--code", "--evaluations", "--control_steps"):
+        assert re.match(rf"  {flag} \[none: \w[^\]]*\]: ", shown[flag]), shown[flag]
+    budget = shown["--evaluations"]
+    assert "untrained reference" in budget and "never ranked" in budget
+
+
+def test_verify_help_shows_what_each_flag_left_out_means():
+    shown = _flag_lines("cpg_suite.protocol.verify")
+    for flag in ("--ship_from", "--rescore", "--upgrade_to", "--entropy", "--trusted_list"):
+        assert re.match(rf"  {flag} \[none: \w[^\]]*\]: ", shown[flag]), shown[flag]
+
+
+def test_leaderboard_help_points_to_the_protocol_and_names_its_files():
+    out = _help("analysis.leaderboard").stdout
+    assert "docs/protocol.md" in out and "docs/submit.md" in out
+    assert "docs/architecture.md" not in out
+    for name in ("leaderboard.csv", "darwin_leaderboard.csv", "darwin_not_admitted.csv"):
+        assert name in out
+    assert "  --runs [required]: " in out
+
+
+def test_flag_default_words():
+    values = flags.FlagValues()  # not the process's flags
+    flags.DEFINE_integer("steps", 5, "Steps.", flag_values=values)
+    flags.DEFINE_string("name", "", "A name.", flag_values=values)
+    flags.DEFINE_string("out", None, "none: print only. Where to write.", flag_values=values)
+    flags.DEFINE_string(
+        "strip", None, "Between snapshots (default: a quarter).", flag_values=values
+    )
+    flags.DEFINE_string("run", None, "A run.", flag_values=values, required=True)
+    flags.DEFINE_string("dir", None, "none: required. A folder.", flag_values=values)
+    flags.DEFINE_string("path", "a.txt", "A path.", flag_values=values)
+    flags.DEFINE_string("other", None, "Something.", flag_values=values)
+    assert {name: cli.flag_default(values[name]) for name in values} == {
+        "steps": ("5", "Steps."),
+        "name": ('""', "A name."),
+        "out": ("none: print only", "Where to write."),
+        "strip": ("none: a quarter", "Between snapshots."),
+        "run": ("required", "A run."),
+        "dir": ("required", "A folder."),
+        "path": ("a.txt", "A path."),
+        "other": ("none", "Something."),
+    }

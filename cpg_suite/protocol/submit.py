@@ -259,21 +259,85 @@ def _score_into(run_dir: str, submission: Submission, write_artifact, trust_code
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
     d = Submission  # its defaults (an empty method is no valid submission)
-    flags.DEFINE_string("gait", None, "JSON file of the 11 CPG amplitudes (by name).")
-    flags.DEFINE_string("policy", None, f"An exported policy ({exported.FILE}'s format).")
-    flags.DEFINE_string("actions", None, "A (1000, 12) float64 .npy table of actions per step.")
-    flags.DEFINE_string("code", None, "A Python file defining make_policy() (it is run).")
-    flags.DEFINE_string("root", d.root, "The run tree the run goes into.")
-    flags.DEFINE_string("method", d.method, "The method's name.")
+    one = "give one of --gait, --policy, --actions, --code"
+    flags.DEFINE_string(
+        "gait", None, f"none: not a gait. JSON file of the 11 CPG amplitudes by name ({one})."
+    )
+    flags.DEFINE_string(
+        "policy",
+        None,
+        f"none: not a policy. An exported policy: NumPy arrays in {exported.FILE}'s format.",
+    )
+    flags.DEFINE_string(
+        "actions", None, "none: not a table. A (1000, 12) float64 .npy table of actions per step."
+    )
+    flags.DEFINE_string(
+        "code", None, "none: not code. A Python file defining make_policy() (it is run)."
+    )
+    flags.DEFINE_string("root", d.root, "The run tree; the run goes into a new folder in it.")
+    flags.DEFINE_string("method", d.method, "The method's name (required).")
     flags.DEFINE_string("config", d.config, "The configuration's name.")
     flags.DEFINE_integer("seed", d.seed, "The run's seed.")
     flags.DEFINE_string("training_task", d.training_task, "The tier the method trained on.")
-    flags.DEFINE_integer("evaluations", None, "Training trials used (a gait optimizer).")
-    flags.DEFINE_integer("control_steps", None, "Training control steps given (a learner).")
+    flags.DEFINE_integer(
+        "evaluations",
+        None,
+        "none: no budget. Training trials used (a gait optimizer's budget). A run with "
+        "neither budget is an untrained reference: listed on the board, never ranked.",
+    )
+    flags.DEFINE_integer(
+        "control_steps",
+        None,
+        "none: no budget. Training control steps given (a learner's budget; see --evaluations).",
+    )
     flags.DEFINE_integer("threads", d.threads, "Evaluator threads (the card does not change).")
 
 
 _KINDS = ("gait", "policy", "actions", "code")  # the flags naming what is submitted
+# The files of data that --policy and --actions take: how each starts, and its name.
+_NUMPY_FILES = {
+    "policy": (b"PK\x03\x04", "a NumPy .npz archive of arrays"),
+    "actions": (b"\x93NUMPY", "a NumPy .npy array"),
+}
+
+
+def _gait_by_name(path: str):
+    """The amplitudes of a --gait file: a JSON object of the 11 amplitudes by name, or such
+    an object under "amplitudes" (as `selected_params.json` holds them).
+
+    Raises:
+      ValueError: If the file is no JSON, or gives the amplitudes otherwise than by name.
+    """
+    with open(path, encoding="utf-8") as f:
+        try:
+            data = json.load(f)
+        except json.JSONDecodeError as e:
+            raise ValueError(f"not JSON ({e})") from None
+    if isinstance(data, dict) and "amplitudes" in data:
+        data = data["amplitudes"]
+    if not isinstance(data, dict):
+        kind = "array" if isinstance(data, list) else type(data).__name__
+        first = cpg.AMPLITUDE_NAMES[0]
+        raise ValueError(
+            f'the amplitudes go by name, {{"{first}": degrees, ...}} (all '
+            f"{cpg.N_AMPLITUDES} of {', '.join(cpg.AMPLITUDE_NAMES)}), got a JSON {kind}"
+        )
+    return cpg.amplitudes_from(data)
+
+
+def _check_numpy_file(kind: str, path: str) -> None:
+    """Refuses a --policy or --actions file that is not NumPy's own format (a pickle, text).
+
+    Raises:
+      UsageError: Naming the flag, the file and what it must be.
+    """
+    magic, words = _NUMPY_FILES[kind]
+    with open(path, "rb") as f:
+        start = f.read(len(magic))
+    cli.check(
+        start == magic,
+        f"--{kind}={path} is not {words}; submit reads data only, never a pickle or code",
+    )
 
 
 def main(argv: list[str]) -> None:
@@ -287,9 +351,17 @@ def main(argv: list[str]) -> None:
     )
     ((kind, path),) = given
     cli.check(os.path.isfile(path), f"--{kind}={path} is not a file")
+    # What is wrong with the output folder names the output folder.
+    cli.check_output_dir(submission.root, "--root")
+    cli.check(
+        not os.path.exists(submission.run_dir()),
+        f"--root={submission.root}: {submission.run_dir()} exists: a submission makes a new run",
+    )
+    if kind in _NUMPY_FILES:
+        _check_numpy_file(kind, path)
     try:
         if kind == "gait":
-            run_dir = submit_gait(cpg.load_amplitudes(path), submission)
+            run_dir = submit_gait(_gait_by_name(path), submission)
         elif kind == "policy":
             run_dir = submit_policy(exported.NumpyPolicy.load(path), submission)
         elif kind == "actions":
@@ -297,7 +369,9 @@ def main(argv: list[str]) -> None:
         else:
             run_dir = submit_code(path, submission)
     except (ValueError, KeyError, OSError) as e:
-        raise cli.UsageError(f"{path}: {e}") from None
+        if "allow_pickle" in str(e):  # NumPy's advice to unpickle: not ours to give
+            e = "it holds pickled (object) arrays; submit reads plain arrays only, never a pickle"
+        raise cli.UsageError(f"--{kind}={path}: {e}") from None
     card = runs.read_json(os.path.join(run_dir, "summary.json"))["test"]
     print(score.format_card(card))
     print(f"wrote {run_dir}")

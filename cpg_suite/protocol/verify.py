@@ -766,17 +766,23 @@ def define_flags() -> None:
     flags.DEFINE_bool("quick", False, f"Re-score {QUICK_SEEDS} seeds per tier of one run each.")
     flags.DEFINE_integer("threads", 2, "Evaluator threads (results do not depend on it).")
     flags.DEFINE_integer("jobs", 2, "Runs re-scored at once, a process each (1: none).")
-    flags.DEFINE_string("ship_from", None, "First ship the finished runs under this folder.")
+    flags.DEFINE_string(
+        "ship_from", None, "none: ship nothing. First ship the finished runs under this folder."
+    )
     flags.DEFINE_bool(
         "update_cards", False, "Re-score every shipped run and store its card (trials unchanged)."
     )
     flags.DEFINE_string(
-        "rescore", None, "Re-score the shipped runs under this subfolder; store cards and trials."
+        "rescore",
+        None,
+        "none: compare only. Re-score the shipped runs under this subfolder; store cards and "
+        "trials.",
     )
     flags.DEFINE_integer(
         "upgrade_to",
         None,
-        "Score every shipped run under this benchmark version, its card kept as history.",
+        "none: no upgrade. Score every shipped run under this benchmark version, its card "
+        "kept as history.",
     )
     flags.DEFINE_bool(
         "trust_code",
