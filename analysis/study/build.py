@@ -9,7 +9,8 @@ and the shipped run files (`analysis.study.evidence`); trains nothing. Writes:
   claims.csv   a row per catalog claim and part: its verdict (holds, fails, not
                reproduced here, mixed, inconclusive, not testable here), the evidence line,
                why where it did not hold (for "not reproduced here": what of our model or
-               of what the thesis leaves open the outcome turns on), and where a criterion
+               of what the thesis leaves open the outcome turns on, or the unmet
+               precondition it rests on: readings.PRECONDITION), and where a criterion
                was revised after its runs, the verdict it gave as first written;
   numbers.csv  a row per published number: ours from the same setting and measure with
                its interval and seeds, or its role (a setting, a robot fact) or the reason
@@ -30,7 +31,7 @@ from collections import Counter
 from analysis.study import catalog, chapter4, chapter5, chapter6, numbers, revisions  # noqa: F401
 from analysis.study import verdicts as v
 from analysis.study.evidence import Evidence, MissingEvidence
-from analysis.study.readings import NEEDS, NOT_REPRODUCED, READINGS
+from analysis.study.readings import NEEDS, NOT_REPRODUCED, READINGS, UNMET
 from analysis.study.registry import RULES
 
 OUT = os.path.join("results", "study")
@@ -105,6 +106,9 @@ def _judge_one(row: dict, ev: Evidence) -> v.Verdict:
         verdict = rule(ev)
     except MissingEvidence as e:
         return v.Verdict(v.INCONCLUSIVE, "", f"runs missing: {e}")
+    if row["id"] in UNMET:  # read on a precondition the runs do not meet
+        shown = f"{verdict.evidence}; the rule on these runs: {verdict.verdict}"
+        return v.Verdict(v.NOT_REPRODUCED, shown, UNMET[row["id"]])
     if verdict.verdict == v.FAILS and row["id"] in NOT_REPRODUCED:
         return v.Verdict(v.NOT_REPRODUCED, verdict.evidence, NOT_REPRODUCED[row["id"]])
     if verdict.verdict in (v.FAILS, v.MIXED) and row["id"] in READINGS:

@@ -102,7 +102,7 @@ def _counts(sweep: dict[tuple[float, float], list[dict]]) -> str:
 # decide whether A's inversion goes unstable, none of which the thesis gives (seed L1030).
 NAC_1_NEEDS = (
     "a sweep over what decides the inversion's stability, none of it given by the thesis "
-    "(L1030): ε_A down to 1e-12, α up to 1e4, the forgetting β, and the features' scale "
+    "(seed L1030): ε_A down to 1e-12, α up to 1e4, the forgetting β, and the features' scale "
     "(ours: targets in rad and phases; in degrees they are ~57× larger)"
 )
 
@@ -283,7 +283,7 @@ def cem_14b(ev: Evidence) -> v.Verdict:
     if gain.verdict != v.HOLDS:
         return v.Verdict(v.FAILS, gain.evidence, "CEM did not beat the hand-tuned gait")
     verdict = v.HOLDS if nac.verdict == v.HOLDS else v.INCONCLUSIVE
-    return v.Verdict(verdict, f"{gain.evidence}; NAC-3 {nac.verdict}", nac.why)
+    return v.Verdict(verdict, f"{gain.evidence}; NAC-3's rule {nac.verdict}", nac.why)
 
 
 @rule("CPG-4")

@@ -194,7 +194,10 @@ def write(out: str, claims: list[dict], table: list[dict], ev: Evidence) -> str:
         "does not hold; its why says whose the failure is. **not reproduced here**: it does "
         "not hold here, and the outcome turns on something the thesis does not give (a "
         "constant, a dimension, a definition) or on a named, measured difference between our "
-        "model and the thesis'; its why names it, with the thesis' line (seed Lnnn). Where a "
+        "model and the thesis'; its why names it, with the thesis' line (seed Lnnn). A claim "
+        "read on a precondition our runs do not meet (CPG-4: the CPG alone keeps the COP at "
+        "the sole's edge, so the balance reward is saturated) is not reproduced here whatever "
+        "its rule gives on those runs; its evidence shows what the rule gave. Where a "
         "criterion was revised after its runs, the verdict it gave as first written stands "
         "beside the verdict.",
         "",

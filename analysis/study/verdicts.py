@@ -3,7 +3,8 @@
 A verdict is one of `VERDICTS`: a claim holds, fails (tested in the thesis' setting, it
 does not hold), is not reproduced here (it does not hold here, and the outcome turns on
 something the thesis does not give or on a named, measured difference between our model
-and the thesis': `readings.NOT_REPRODUCED` says which), is mixed (its parts differ),
+and the thesis': `readings.NOT_REPRODUCED` says which; or it rests on a precondition our runs
+do not meet, whatever its rule gives: `readings.PRECONDITION`), is mixed (its parts differ),
 inconclusive (the intervals do not decide), or is not testable here (with the reason).
 Comparisons over seeds use the bootstrap of `cpg_suite.protocol.aggregate` (a fixed
 generator seed, so a verdict is the same bits every time).
