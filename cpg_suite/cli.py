@@ -466,7 +466,11 @@ def require_backend(backend: str, ray_address: str | None = None) -> None:
 def define_backend_flags() -> None:
     """`--backend` and `--ray_address` (the settings fields `backend`, `ray_address`)."""
     flags.DEFINE_enum("backend", "local", list(BACKENDS), "local threads, or Ray (same results).")
-    flags.DEFINE_string("ray_address", None, "Ray cluster: host:port of its head, or auto.")
+    flags.DEFINE_string(
+        "ray_address",
+        None,
+        "none: a private local Ray instance. Ray cluster: host:port of its head, or auto.",
+    )
 
 
 # What the optimizers tune and the scorer scores: the study's open-loop CPG amplitudes, or
