@@ -34,7 +34,8 @@ import numpy as np
 from absl import flags
 
 import cpg_suite
-from cpg_suite import cli, cpg, darwin, darwin_pose
+from cpg_suite import cli, cpg, darwin
+from cpg_suite.darwin import pose as darwin_pose
 from cpg_suite.evaluation.gait import evaluate_gait, parse_params
 from cpg_suite.mjx import walk
 

@@ -158,7 +158,7 @@ class SupplyMeter:
     The same operations in the same order as `supply_current` (`motor_current`, then
     `input_power`, the floor at 0, the sum over the servos), so the same bits
     (`tests/test_electrical.py`), without allocating: the per-control-step hot path of the
-    CPU tasks (`darwin_recording.supply_currents`).
+    CPU tasks (`darwin.recording.supply_currents`).
     """
 
     def __init__(self, steps: int | tuple[int, ...], servos: int = N_SERVOS):

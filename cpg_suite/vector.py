@@ -43,7 +43,8 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 import cpg_suite
-from cpg_suite import base, darwin, darwin_recording, electrical
+from cpg_suite import base, cpg, darwin, electrical, perturbations
+from cpg_suite.darwin import recording as darwin_recording
 
 WALK_TASKS = tuple(t for t in cpg_suite.TASK_IDS if t.startswith("darwin_walk"))
 
@@ -138,12 +139,12 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
     def _layout(self, physics: darwin.Physics) -> None:
         """Addresses shared by every sub-environment (the tiers change no layout)."""
         model = physics.model
-        address = {n: model.name2id(n, "joint") for n in ("root",) + darwin.cpg.LEG_JOINTS}
+        address = {n: model.name2id(n, "joint") for n in ("root",) + cpg.LEG_JOINTS}
         self._root_q = int(model.jnt_qposadr[address["root"]])
         self._root_v = int(model.jnt_dofadr[address["root"]])
-        self._leg_q = np.array([model.jnt_qposadr[address[n]] for n in darwin.cpg.LEG_JOINTS])
+        self._leg_q = np.array([model.jnt_qposadr[address[n]] for n in cpg.LEG_JOINTS])
         self._leg_v = physics.leg_dofs()
-        self._leg_act = np.array([model.name2id(n, "actuator") for n in darwin.cpg.LEG_JOINTS])
+        self._leg_act = np.array([model.name2id(n, "actuator") for n in cpg.LEG_JOINTS])
         self._torso = physics.torso_body()
 
         self._sensors = physics.sensor_slices()
@@ -274,7 +275,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             task = self.envs[i].task
             push = None
             if task.pushes is not None:
-                push = darwin.perturbations.push_force(task.push_schedule, int(self._steps[i]))
+                push = perturbations.push_force(task.push_schedule, int(self._steps[i]))
             work.append((int(i), targets[i], push))
         blocks = [work[k :: self.threads] for k in range(min(self.threads, len(work)))]
         # The calling thread steps the first block while the pool steps the others.

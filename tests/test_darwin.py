@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 import cpg_suite
-from cpg_suite import cpg, darwin, darwin_contacts, darwin_pose
+from cpg_suite import cpg, darwin
+from cpg_suite.darwin import contacts as darwin_contacts
+from cpg_suite.darwin import pose as darwin_pose
 from cpg_suite.evaluation.gait import evaluate_gait
 
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import cpg_suite
-from cpg_suite import cpg, darwin_recording, electrical
+from cpg_suite import cpg, electrical
+from cpg_suite.darwin import recording as darwin_recording
 from cpg_suite.evaluation import closed_loop, open_loop
 from cpg_suite.protocol import score
 

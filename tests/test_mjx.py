@@ -25,12 +25,12 @@ import cpg_suite  # noqa: E402
 from cpg_suite import (  # noqa: E402
     cpg,
     darwin,
-    darwin_perturb,
-    darwin_pose,
     electrical,
     perturbations,
     residual,
 )
+from cpg_suite.darwin import perturb as darwin_perturb  # noqa: E402
+from cpg_suite.darwin import pose as darwin_pose  # noqa: E402
 from cpg_suite.mjx import modulated, physics, walk  # noqa: E402
 
 SEED = 3  # CPU task seed of the comparisons.

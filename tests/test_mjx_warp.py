@@ -29,11 +29,11 @@ import cpg_suite  # noqa: E402
 from cpg_suite import (  # noqa: E402
     cpg,
     darwin,
-    darwin_perturb,
     electrical,
     perturbations,
     residual,
 )
+from cpg_suite.darwin import perturb as darwin_perturb  # noqa: E402
 from cpg_suite.mjx import training, walk  # noqa: E402
 
 SEED = 3  # CPU task seed of the comparisons.

@@ -1,6 +1,6 @@
 """The leg servos against the ROBOTIS MX-28 datasheet: no-load speed and stall torque at 12 V.
 
-The model's servo (cpg_suite/darwin.py, docs/darwin_op_model.md#servos-dynamixel-mx-28) is a
+The model's servo (cpg_suite/darwin/, docs/darwin_op_model.md#servos-dynamixel-mx-28) is a
 MuJoCo position actuator whose force is clamped at the stall torque, on a joint whose damping
 is the slope of the MX-28 torque-speed line: driven at the clamp, a joint free of load settles
 at clamp / damping, the no-load speed. These tests measure that in the simulation and compare

@@ -1,6 +1,6 @@
 """The part of `mj_setConst` that MJX reads, in JAX: the bodies' and dofs' inverse weights.
 
-`darwin_perturb.set_torso_inertial` calls `mj_setConst` after changing the torso's mass,
+`darwin.perturb.set_torso_inertial` calls `mj_setConst` after changing the torso's mass,
 inertia and centre of mass, so that the constraint solver's regularization (which scales
 with `body_invweight0` for contacts and `dof_invweight0` for joint limits) sees the new
 mass distribution. MJX has no `mj_setConst`; `invweights` recomputes these two arrays at

@@ -474,7 +474,7 @@ class WalkEnv:
         )
 
     def standing_pose(self, model: mjx.Model, leg_angles: jax.Array) -> mjx.Data:
-        """`darwin_pose.set_standing_pose` followed by dm_control's `after_reset`.
+        """`darwin.pose.set_standing_pose` followed by dm_control's `after_reset`.
 
         Args:
           model: The episode's model.
@@ -499,7 +499,7 @@ class WalkEnv:
 
     @staticmethod
     def _lowest_corner(model: mjx.Model, data: mjx.Data, geom: int) -> jax.Array:
-        """Height of a box geom's lowest corner, m (`darwin_pose.lowest_corner`)."""
+        """Height of a box geom's lowest corner, m (`darwin.pose.lowest_corner`)."""
         signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
         local = signs * model.geom_size[geom]
         rot = data.geom_xmat[geom]

@@ -42,7 +42,6 @@ import cpg_suite
 from cpg_suite import (
     cli,
     cpg,
-    darwin_recording,
     electrical,
     evaluation,
     feedback,
@@ -50,6 +49,7 @@ from cpg_suite import (
     protocol,
 )
 from cpg_suite.base import clear_invalid_state_warnings, invalid_state
+from cpg_suite.darwin import recording as darwin_recording
 from cpg_suite.evaluation import gait, ray_backend
 from cpg_suite.evaluation import quality as gait_quality
 from cpg_suite.evaluation.open_loop import BROWNOUT, FALL

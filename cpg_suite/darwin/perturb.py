@@ -121,7 +121,7 @@ def set_tile_heights(physics: mujoco.Physics, heights: np.ndarray) -> None:
     """Raises the terrain tiles' tops to `heights` above the plane, m (0: hidden).
 
     Args:
-      physics: A `darwin.Physics` of a model with tiles (`darwin_model.get_model_and_assets`
+      physics: A `darwin.Physics` of a model with tiles (`robot.get_model_and_assets`
         with a terrain).
       heights: One height per tile, m.
 

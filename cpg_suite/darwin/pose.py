@@ -9,7 +9,7 @@ import numpy as np
 from dm_control import mujoco
 
 # Arms 10° out from hanging vertical (±0.785), elbows bent 30° from straight (±1.571), head
-# level (+0.70, the ROBOTIS walking engine's eye-tilt offset); `darwin_model.ARM_JOINTS` order.
+# level (+0.70, the ROBOTIS walking engine's eye-tilt offset); `robot.ARM_JOINTS` order.
 ARM_POSE = np.array([0.0, 0.61, 1.05, 0.0, -0.61, -1.05, 0.0, 0.70])
 
 
@@ -25,7 +25,7 @@ def set_standing_pose(
     Args:
       physics: A `darwin.Physics`.
       leg_angles: (12,) leg joint angles, rad, in `cpg.LEG_JOINTS` order.
-      arm_angles: (8,) arm and head joint angles, rad, in `darwin_model.ARM_JOINTS` order.
+      arm_angles: (8,) arm and head joint angles, rad, in `robot.ARM_JOINTS` order.
       clearance: Height of the lowest sole corner above the floor, m.
     """
     data, r = physics.data, physics._root_qpos

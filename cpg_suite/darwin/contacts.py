@@ -21,7 +21,7 @@ def foot_loads(physics: mujoco.Physics) -> tuple[list[float], list[list[float]]]
     """Normal force of each foot and the force-weighted sum of its contact points.
 
     The normal force of a contact is the sum of its four pyramid-edge forces (condim 3,
-    pyramidal cone: checked when the model is loaded, `darwin_checks.check_model`), as
+    pyramidal cone: checked when the model is loaded, `checks.check_model`), as
     `mj_contactForce` computes it; a plain loop over the few contacts is the fastest way on
     this hot path.
 

@@ -1,29 +1,4 @@
-"""DARwIn-OP domain: the humanoid of the study, walking or balancing on a CPG (thesis Ch. 5-6).
-
-Model (`xml/darwin.xml`) from docs/darwin_op_model.md: 20 joints with the Webots axes, ranges,
-masses, centres of mass and inertias (total 2.925 kg); box feet 0.105 × 0.066 m; torso IMU
-(accelerometer, gyro, orientation) and a touch sensor under each sole. Decisions:
-
-* **Torso centre of mass**: the Webots value (−0.050, 0, −0.080) m, not the CAD-derived
-  (−0.019, −0.003, −0.039) (docs/darwin_op_model.md#masses). The study's numbers come from
-  the Webots model, so we keep its mass distribution; the whole-robot centre of mass then sits 13 mm
-  behind the foot centres, inside the 105 mm long support.
-* **Servos** (MX-28, docs/darwin_op_model.md#servos-dynamixel-mx-28): MuJoCo position
-  actuators with kp = 40 N·m/rad and a torque limit of 2.5 N·m (stall torque at 12 V);
-  joint damping 0.43 N·m·s/rad, the slope of the MX-28 torque-speed line (2.5 N·m stall /
-  5.76 rad/s no-load), i.e. the back-EMF braking of the motor; armature 0.005 kg·m² (a
-  coreless rotor of about 1.3e-7 kg·m² reflected through the 193:1 gearbox). The sources
-  give no SI stiffness; kp was chosen with `python -m baselines.experiments.calibrate_cpg`.
-* **Contacts**: soft-ish rubber soles (friction 1.0, solref 0.008 s); the feet collide with
-  each other and with the floor, every other robot geom only with the floor.
-* **Timing**: physics step 2 ms (implicit-fast integrator), control step 16 ms (the Webots
-  DARwIn-OP worlds' basic time step), 1000 control steps = 16 s per episode.
-* **Pose**: arms hang 10° out from the body with the elbows bent 30°, head level; the
-  task holds them with their servos (not part of the action). The legs start in the CPG's
-  standing posture (its offsets O), feet flat on the floor, each leg joint perturbed by
-  U(−0.01, 0.01) rad from the task's random generator.
-* **Fall**: the torso origin (shoulder axis) below 0.22 m (0.34 m standing) or the torso
-  tilted more than 50° from upright.
+"""The DARwIn-OP tasks: the suite (`SUITE`), each task's environment and `CPGTask`.
 
 Tasks (control step 16 ms, 1000 steps; action = the 12 leg joint targets, each scaled
 from [−1, 1] onto the joint's range, in the order `cpg.LEG_JOINTS`):
@@ -34,9 +9,8 @@ from [−1, 1] onto the joint's range, in the order `cpg.LEG_JOINTS`):
   centre of pressure to its sole centre), m; a stance foot carries more than 5 % of the
   body weight; 0 when no foot does. A fall ends the episode with discount 0.
 
-This module holds the tasks (`SUITE`, `CPGTask`); the model, its parts and the fall test
-are in `darwin_model`, the named accessors in `darwin_physics` (`Physics`), what acts on a
-physics in `darwin_recording`, `darwin_checks`, `darwin_pose`, `darwin_contacts`, `darwin_perturb`.
+The model and its decisions are described in the package's docstring (`cpg_suite.darwin`);
+the physics this module's tasks act on is `physics.Physics`.
 """
 
 from __future__ import annotations
@@ -49,32 +23,15 @@ from dm_control.rl import control
 from dm_control.utils import containers
 from dm_env import specs
 
-from cpg_suite import (
-    base,
-    cpg,
-    darwin_contacts,
-    darwin_model,
-    darwin_perturb,
-    darwin_physics,
-    darwin_pose,
-    darwin_recording,
-    electrical,
-    perturbations,
-)
+from cpg_suite import base, cpg, electrical, perturbations
+from cpg_suite.darwin import contacts, perturb, pose, recording, robot
+from cpg_suite.darwin.physics import Physics
 
 CONTROL_TIMESTEP = 0.016  # s: Webots DARwIn-OP basicTimeStep (the one definition).
 DEFAULT_TIME_LIMIT = 16.0  # s: 1000 control steps ("1000 timesteps" of the study).
 INIT_NOISE = 0.01  # rad: U(−x, x) added to each leg joint of the initial posture.
 _WALK_VIZ_SPEED = 0.2  # m/s shown as full reward colour.
 _BALANCE_VIZ_DISTANCE = 0.05  # m of COP offset shown as zero reward colour.
-
-# The domain's model, parts, pose, fall test and physics, defined in the modules that own them.
-FOOT_GEOMS, FLOOR_GEOM = darwin_model.FOOT_GEOMS, darwin_model.FLOOR_GEOM
-GROUND_GEOMS, ARM_JOINTS = darwin_model.GROUND_GEOMS, darwin_model.ARM_JOINTS
-ARM_POSE = darwin_pose.ARM_POSE
-torso_upright, has_fallen = darwin_model.torso_upright, darwin_model.has_fallen
-get_model_and_assets = darwin_model.get_model_and_assets
-Physics = darwin_physics.Physics
 
 OBJECTIVES = ("walk", "balance")
 # The task's observation, in the order `CPGTask.get_observation` returns it (the order a
@@ -96,13 +53,13 @@ def physics_steps_per_control_step(model: mj.MjModel | None = None) -> int:
     """Physics steps in one control step: `CONTROL_TIMESTEP` over the model's timestep.
 
     Args:
-      model: The compiled DARwIn-OP model (None: compiles `get_model_and_assets()`).
+      model: The compiled DARwIn-OP model (None: compiles `robot.get_model_and_assets()`).
 
     Returns:
       The number of physics steps (8 for the shipped MJCF's 2 ms).
     """
     if model is None:
-        xml, assets = get_model_and_assets()
+        xml, assets = robot.get_model_and_assets()
         model = mj.MjModel.from_xml_string(xml, assets)
     return int(round(CONTROL_TIMESTEP / model.opt.timestep))
 
@@ -251,13 +208,13 @@ def _environment(
 ) -> control.Environment:
     """A task's environment: the model compiled once and copied, the servos' gain and
     torque limit where not None, the task with at most one perturbation."""
-    xml, assets = get_model_and_assets(perturbation.get("terrain"))
-    physics = Physics.from_model(darwin_model.compiled(xml, tuple(sorted(assets.items()))).copy())
+    xml, assets = robot.get_model_and_assets(perturbation.get("terrain"))
+    physics = Physics.from_model(robot.compiled(xml, tuple(sorted(assets.items()))).copy())
     servo_gain, torque_limit = servo
     if servo_gain is not None:
-        darwin_perturb.set_servo_gain(physics, servo_gain)
+        perturb.set_servo_gain(physics, servo_gain)
     if torque_limit is not None:
-        darwin_perturb.set_torque_limit(physics, torque_limit)
+        perturb.set_torque_limit(physics, torque_limit)
     task = CPGTask(objective, posture, init_noise, random=random, supply=supply, **perturbation)
     return base.make_environment(physics, task, time_limit, CONTROL_TIMESTEP, environment_kwargs)
 
@@ -327,11 +284,11 @@ class CPGTask(base.Task):
             self.episode_parameters = self.randomization.sample(self.random)
             self._apply_parameters(physics, self.episode_parameters)
         if self.terrain is not None:
-            darwin_perturb.set_tile_heights(physics, self.terrain.sample(self.random))
+            perturb.set_tile_heights(physics, self.terrain.sample(self.random))
         if self.pushes is not None:
             self.push_schedule = self.pushes.sample(self.random, CONTROL_TIMESTEP)
-            darwin_perturb.set_torso_push(physics, np.zeros(3))
-        darwin_pose.set_standing_pose(physics, self.posture + noise)
+            perturb.set_torso_push(physics, np.zeros(3))
+        pose.set_standing_pose(physics, self.posture + noise)
         if self.supply is None:
             limit = self.supply_limit or electrical.SupplyLimit()
             enforce = self.supply_limit is not None
@@ -343,10 +300,10 @@ class CPGTask(base.Task):
         super().initialize_episode(physics)
 
     def _apply_parameters(self, physics: Physics, params: dict) -> None:
-        """Sets an episode's draw (`darwin_perturb.apply_parameters`) around the nominal torso."""
+        """Sets an episode's draw (`perturb.apply_parameters`) around the nominal torso."""
         if self._nominal_torso is None:
-            self._nominal_torso = darwin_perturb.torso_inertial(physics)
-        darwin_perturb.apply_parameters(physics, params, self._nominal_torso)
+            self._nominal_torso = perturb.torso_inertial(physics)
+        perturb.apply_parameters(physics, params, self._nominal_torso)
 
     def push_forces(self, n_steps: int) -> np.ndarray:
         """(n_steps, 3) push force on the torso during each control step of the episode, N."""
@@ -358,7 +315,7 @@ class CPGTask(base.Task):
         if self.pushes is not None:
             step = int(round(physics.data.time / CONTROL_TIMESTEP))  # 0-based control step
             force = perturbations.push_force(self.push_schedule, step)
-            darwin_perturb.set_torso_push(physics, force)
+            perturb.set_torso_push(physics, force)
         self._x_before = physics.forward_position()
 
     def get_observation(self, physics: Physics) -> collections.OrderedDict:
@@ -377,11 +334,11 @@ class CPGTask(base.Task):
     def get_reward(self, physics: Physics) -> float:
         if self.objective == "walk":
             return physics.forward_position() - self._x_before
-        return darwin_contacts.balance_reward(physics)
+        return contacts.balance_reward(physics)
 
     def after_step(self, physics: Physics) -> None:
         """Adds the step's supply currents to the episode's (`electrical.SupplyMonitor`)."""
-        self.supply.update(darwin_recording.supply_currents(physics, copy=False))
+        self.supply.update(recording.supply_currents(physics, copy=False))
         super().after_step(physics)
 
     def get_termination(self, physics: Physics):

@@ -1,12 +1,12 @@
 """`Physics`: the DARwIn-OP model's named accessors (`darwin.Physics`).
 
-Addresses are looked up by name (`darwin_model`) when the model is loaded, and the
+Addresses are looked up by name (`robot`) when the model is loaded, and the
 accessors read views of the state made then: the tasks call them on every control step.
 What is not an accessor lives with what owns it, each a function of the physics:
-recording the physics steps and the supply current (`darwin_recording`), the model's and
-the state's checks (`darwin_checks`), the standing pose (`darwin_pose`), the feet's loads
-and the balance reward (`darwin_contacts`), and the physical parameters the test tiers
-perturb (`darwin_perturb`).
+recording the physics steps and the supply current (`recording`), the model's and
+the state's checks (`checks`), the standing pose (`pose`), the feet's loads
+and the balance reward (`contacts`), and the physical parameters the test tiers
+perturb (`perturb`).
 """
 
 from __future__ import annotations
@@ -15,8 +15,10 @@ import mujoco as mj
 import numpy as np
 from dm_control import mujoco
 
-from cpg_suite import cpg, darwin_checks, darwin_model, darwin_recording
-from cpg_suite.darwin_model import (
+from cpg_suite import cpg
+from cpg_suite.darwin import checks, recording, robot
+from cpg_suite.darwin.pose import ARM_POSE
+from cpg_suite.darwin.robot import (
     ARM_JOINTS,
     FALL_HEIGHT,
     FALL_TILT_COS,
@@ -26,7 +28,6 @@ from cpg_suite.darwin_model import (
     ids,
     torso_upright,
 )
-from cpg_suite.darwin_pose import ARM_POSE
 
 # 1 and 1/2 as 0-d arrays (read-only): NumPy converts a Python float operand on every
 # call, which costs more than the arithmetic on the hot path's 12-vectors.
@@ -40,7 +41,7 @@ class Physics(mujoco.Physics):
     def _reload_from_data(self, data) -> None:
         super()._reload_from_data(data)
         model, state = self.model, self.data.ptr
-        darwin_checks.check_model(model)
+        checks.check_model(model)
         self._qpos, self._qvel, self._xpos = state.qpos, state.qvel, state.xpos  # views, kept
         self._sensordata, self._ctrl = state.sensordata, state.ctrl
         self._dof_damping = model.ptr.dof_damping
@@ -56,30 +57,30 @@ class Physics(mujoco.Physics):
         self._feet, self._floor = ids(model, FOOT_GEOMS, "geom"), model.name2id(FLOOR_GEOM, "geom")
         self._foot_index = {int(self._feet[0]): 0, int(self._feet[1]): 1}
         self._soles = ids(model, SOLE_SITES, "site")
-        self._tiles = darwin_model.tile_geoms(model)
-        self._sensors = darwin_model.sensor_slices(model)  # `sensor_slices`
+        self._tiles = robot.tile_geoms(model)
+        self._sensors = robot.sensor_slices(model)  # `sensor_slices`
         self._leg_range = model.jnt_range[legs]
         self._leg_low = self._leg_range[:, 0].copy()  # `action_to_targets`' constants
         self._leg_span = self._leg_range[:, 1] - self._leg_range[:, 0]
         self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
-        self._recording = darwin_recording.Recording(self)  # what `step` records
+        self._recording = recording.Recording(self)  # what `step` records
 
     def step(self, nstep: int = 1) -> None:
         """dm_control's step (legacy stepping: `mj_step2` finishes the step whose `mj_step1`
         ran for the last observation, `mj_step` takes the others, then `mj_step1`; a new
         invalid-state warning raises `PhysicsError`): the same MuJoCo calls, so the same
-        trajectory, each physics step recorded (`darwin_recording.substeps`).
+        trajectory, each physics step recorded (`recording.substeps`).
 
         Args:
           nstep: Physics steps.
         """
         counts = self._warnings.tobytes()  # `check_invalid_state`, inline
-        darwin_recording.substeps(self, nstep, finish=True)
+        recording.substeps(self, nstep, finish=True)
         mj.mj_step1(*self._pointers)
         if self._warnings.tobytes() != counts:
-            darwin_checks.raise_new_warnings(self, counts)
+            checks.raise_new_warnings(self, counts)
 
-    check_invalid_state = darwin_checks.check_invalid_state  # dm_control's, on the counts' bytes
+    check_invalid_state = checks.check_invalid_state  # dm_control's, on the counts' bytes
 
     # Servos.
     def servo_dofs(self) -> np.ndarray:

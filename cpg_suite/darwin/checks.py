@@ -20,16 +20,17 @@ import numpy as np
 from dm_control import mujoco
 from dm_control.rl import control
 
-from cpg_suite import cpg, darwin_model
+from cpg_suite import cpg
+from cpg_suite.darwin import robot
 
 
 def check_model(model: mujoco.wrapper.MjModel) -> None:
     """Checks what the DARwIn-OP code assumes of the model.
 
-    The feet's floor contacts have condim 3 under a pyramidal cone (`darwin_contacts` sums
+    The feet's floor contacts have condim 3 under a pyramidal cone (`contacts` sums
     four pyramid-edge forces per contact); the actuators are the legs' then the arms'
     servos (the `servo_forces` sensors and `cpg_suite.electrical` read them in that order);
-    the integrator has one stage (`darwin_recording.substeps` finishes a step with
+    the integrator has one stage (`recording.substeps` finishes a step with
     `mj_step2`).
 
     Args:
@@ -38,13 +39,13 @@ def check_model(model: mujoco.wrapper.MjModel) -> None:
     Raises:
       ValueError: If one of these does not hold.
     """
-    names = (darwin_model.FLOOR_GEOM, *darwin_model.FOOT_GEOMS)
-    geoms = darwin_model.ids(model, names, "geom")
+    names = (robot.FLOOR_GEOM, *robot.FOOT_GEOMS)
+    geoms = robot.ids(model, names, "geom")
     if model.opt.cone != mj.mjtCone.mjCONE_PYRAMIDAL or np.any(model.geom_condim[geoms] != 3):
         raise ValueError("centres_of_pressure expects condim 3 contacts and a pyramidal cone")
     names = [model.id2name(int(i), "actuator") for i in range(model.nu)]
     if (
-        names != [*cpg.LEG_JOINTS, *darwin_model.ARM_JOINTS]
+        names != [*cpg.LEG_JOINTS, *robot.ARM_JOINTS]
         or model.opt.integrator == mj.mjtIntegrator.mjINT_RK4
     ):
         raise ValueError("expects the legs' then the arms' servos and a one-stage integrator")
