@@ -23,8 +23,7 @@ def _readme() -> str:
 # batched LAPACK call (MJX's Cholesky under vmap) over XLA's CPU thread pool and waits for
 # the pieces from inside that pool, which deadlocks on the CPU (tests/test_jax_cpu.py;
 # docs/decisions.md#jax-versions). Brax 0.14.2's PPO needs jax.device_put_replicated, which
-# JAX 0.10 removed, and gets it from cpg_suite.mjx.training.brax_on_this_jax. gymnasium: the
-# CPG action space's constants live in cpg_suite.residual.
+# JAX 0.10 removed, and gets it from cpg_suite.mjx.training.brax_on_this_jax.
 _JAX = ">=0.9.2,!=0.10.*,!=0.11.0,<0.12"
 _MJX_COMMON = [
     "mujoco==3.17.*",
@@ -65,6 +64,10 @@ setup(
         "pandas>=2.0,<4",
         "tqdm>=4.60,<5",
         "scipy>=1.10,<2",
+        # The Gymnasium interfaces (cpg_suite.gym, .vector) and the CPG action space that
+        # verify and submit run (cpg_suite.residual): 4.5 MB with cloudpickle and
+        # Farama-Notifications, beside ~590 MB for the rest (docs/decisions.md#gymnasium).
+        "gymnasium>=1.0,<2",
     ],
     extras_require={
         # The tests also render a gait video (Pillow for GIF/PNG, imageio + ffmpeg for MP4),
@@ -113,7 +116,6 @@ setup(
     },
     classifiers=[
         "Programming Language :: Python :: 3",
-        "License :: OSI Approved :: Apache Software License",
         "Topic :: Scientific/Engineering :: Artificial Intelligence",
     ],
 )

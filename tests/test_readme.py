@@ -23,7 +23,7 @@ def test_python_examples_run(tmp_path, monkeypatch):
         for code in blocks:
             exec(compile(code, path, "exec"), {"__name__": "__readme__"})
     assert (
-        tmp_path / "runs" / "my_method" / "darwin_walk" / "scaled_seed0" / "trials.csv"
+        tmp_path / "submissions" / "my_method" / "darwin_walk" / "first_seed0" / "trials.csv"
     ).exists()
 
 
