@@ -124,6 +124,8 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
         if "summary.json" not in filenames:
             if "score.json" in filenames:
                 _add_score_card(dirpath, found, skipped)
+            elif admission.looks_like_run(dirpath, filenames):
+                _add_incomplete(dirpath, found)
             continue
         path = os.path.join(dirpath, "summary.json")
         parts = os.path.normpath(dirpath).split(os.sep)
@@ -156,6 +158,28 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
             }
         )
     return found, skipped
+
+
+def _add_incomplete(dirpath: str, found: list[dict]) -> None:
+    """A folder that holds part of a run (or is a submission's half-written folder) joins
+    the runs found with no summary: the DARwIn-OP board lists it as not admitted, with
+    what it lacks (`admission.run_refusal`), and no other table counts it."""
+    parts = os.path.normpath(dirpath).split(os.sep)
+    if len(parts) < 3:
+        return
+    match = _SEED.match(parts[-1])
+    found.append(
+        {
+            "method": parts[-3],
+            "task": parts[-2],
+            "config": (match["config"] or "default") if match else parts[-1],
+            "seed": int(match["seed"]) if match else None,
+            "summary": {},
+            "dir": dirpath,
+            "trained_version": None,
+            "incomplete": True,
+        }
+    )
 
 
 def trained_version(config_path: str) -> int:
@@ -204,7 +228,8 @@ def _published(task: str, method: str, config: str, metric: str):
 def leaderboard_rows(found: list[dict]) -> list[dict]:
     groups = defaultdict(list)
     for run in found:
-        groups[(run["task"], run["method"], run["config"])].append(run["summary"])
+        if not run.get("incomplete"):
+            groups[(run["task"], run["method"], run["config"])].append(run["summary"])
     rows = []
     for (task, method, config), summaries in sorted(groups.items()):
         for metric, unit, higher in METRICS.get(task, []):

@@ -22,6 +22,7 @@ from cpg_suite.protocol import card as card_stats
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RUNS = os.path.join(ROOT, "results", "protocol", "runs")
 GAIT_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed0")  # the cheapest
+OTHER_GAIT_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed1")  # another seed
 POLICY_RUN = os.path.join(RUNS, "ppo", "darwin_walk", "cpg_seed0")  # an SB3 policy
 SB3 = (admission.SB3_MODEL, admission.SB3_NORMALIZER)
 
@@ -173,7 +174,8 @@ def forged(tmp_path_factory):
     """A run tree: a genuine copy of a shipped gait run, each forgery of `FORGERIES` (its
     own configuration), and five "seeds" that are one run copied (config seeds edited)."""
     runs = tmp_path_factory.mktemp("forged") / "runs"
-    _copy(runs, "genuine_seed0")
+    genuine = _copy(runs, "genuine_seed0", source=OTHER_GAIT_RUN)
+    _edit_json(genuine / "config.json", lambda c: c["settings"].update(seed=0))
     for name, (forge, _) in FORGERIES.items():
         forge(_copy(runs, f"{name}_seed0"))
     for seed in range(5):
@@ -198,7 +200,9 @@ def test_the_board_refuses_each_forgery_with_its_reason(forged, tmp_path):
         assert refused[f"{name}_seed0"]["benchmark_version"] == "2"
     for seed in range(1, 5):
         reason = refused[f"copied_seed{seed}"]["reason"]
-        assert reason.startswith("a copy of cem/darwin_walk/copied_seed0: the same trials.csv")
+        assert reason.startswith(
+            "a copy of cem/darwin_walk/copied_seed0: the same trial outcomes as values"
+        )
     assert refused["wrong_seed_seed1"]["reason"].startswith("config.json's seed 0 is not")
     assert set(refused) == {f"{n}_seed0" for n in FORGERIES} | {
         *(f"copied_seed{s}" for s in range(1, 5)),
@@ -403,7 +407,8 @@ def formats(tmp_path_factory):
     pickled = _as_actions(_copy(runs, "actions_pickled_seed0"))
     payload = np.array([_Payload(pickled / "unpickled")], dtype=object)
     np.save(pickled / "selected_actions.npy", payload, allow_pickle=True)
-    _as_code(_copy(runs, "code_seed0"))
+    code = _as_code(_copy(runs, "code_seed0", source=OTHER_GAIT_RUN))  # not the tables' run
+    _edit_json(code / "config.json", lambda c: c["settings"].update(seed=0))
     sb3 = _copy(runs, "cpg_seed0", source=POLICY_RUN, method="ppo")
     (sb3 / "selected_vecnormalize.pkl").write_bytes(pickle.dumps(_Payload(sb3 / "unpickled")))
     return runs
@@ -450,7 +455,7 @@ def test_verify_replays_a_table_and_runs_no_code_it_was_not_asked_to(formats):
     )
     assert reasons["cpg_seed0"] == (
         "its selected_vecnormalize.pkl (pickles: loading runs code) is not in "
-        "results/protocol/trusted_artifacts.txt: re-run with --trust_code to load them"
+        "cpg_suite/data/trusted_pickles.txt: re-run with --trust_code to load them"
     )
     assert reasons["actions_pickled_seed0"].startswith("its selected_actions.npy holds Python")
     assert reasons["actions_card_edited_seed0"].startswith("its trial table does not produce")

@@ -255,7 +255,7 @@ def test_a_policy_run_ships_and_verifies_bit_for_bit(tmp_path):
     settings = _settings(action_space="cpg", test_tiers=("darwin_walk", "darwin_walk_push"))
     run_dir, summary = ppo.run(settings, _options(tmp_path / "runs"), log=_quiet)
     dest = str(tmp_path / "shipped" / "ppo" / "darwin_walk" / "cpg_seed0")
-    with pytest.raises(verify.UntrustedCode, match="not in results/protocol/trusted_artifacts"):
+    with pytest.raises(verify.UntrustedCode, match="not in cpg_suite/data/trusted_pickles"):
         verify.ship(run_dir, dest)  # its pickles are no shipped run's: loaded only if asked
     assert not os.path.exists(dest)
     verify.ship(run_dir, dest, trust_code=True)

@@ -14,9 +14,9 @@ import io
 import json
 import os
 import platform
+import secrets
 import shlex
 import subprocess
-import tempfile
 import time
 
 import numpy as np
@@ -101,8 +101,12 @@ def run_directory(
 
 
 def _atomic_write_bytes(path: str, data: bytes) -> None:
+    """Writes a temporary file beside `path`, then renames it there. The file gets the
+    user's umask, as `open` would give it (mode 0666 less the umask; `tempfile.mkstemp`'s
+    0600 would hide a shared run from its group)."""
     directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=directory)
+    tmp = os.path.join(directory, f".tmp-{secrets.token_hex(8)}")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)

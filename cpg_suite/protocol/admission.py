@@ -18,8 +18,8 @@ A DARwIn-OP run is ranked or listed on the board of a benchmark version only if
   the table with the card's own arithmetic (`card.row`) and must be equal, bit for bit;
 * an action table (`selected_actions.npy`) has one row of 12 float64 actions per control
   step of a trial (its `.npy` header says so; the array is not read);
-* it is no copy: no earlier run (in path order) of the same configuration has the same
-  trial table or the same gait or policy file, byte for byte.
+* it is no copy: no earlier run of any configuration or method has the same trial outcomes
+  or the same gait or policy, as values (`cpg_suite.protocol.copies`).
 
 Everything else is refused with a one-line reason (`refusals`). Nothing here executes code
 from a run folder: JSON and CSV are parsed, the `.npy` header is parsed as data, the gait
@@ -31,7 +31,6 @@ may run is `verify`'s question (`--trust_code`, `verify.code_refusal`).
 from __future__ import annotations
 
 import csv
-import hashlib
 import json
 import os
 import re
@@ -41,12 +40,13 @@ import numpy as np
 
 from cpg_suite import cpg, electrical, protocol
 from cpg_suite.protocol import card as card_stats
+from cpg_suite.protocol import copies, sample
 
 BOARD_VERSION = protocol.BENCHMARK_VERSION  # the version the leaderboard ranks by default
 GAIT = "selected_params.json"
 EXPORTED = "selected_policy.npz"  # `cpg_suite.harness.exported.FILE`
 ACTIONS = "selected_actions.npy"  # `cpg_suite.harness.exported.ACTIONS_FILE`
-CODE = "policy_code.py"  # a Python file defining `make_policy()` (`verify.load_policy_code`)
+CODE = "policy_code.py"  # a Python file defining `make_policy()` (`sandbox.load_policy_code`)
 SB3_MODEL, SB3_NORMALIZER = "selected_model.zip", "selected_vecnormalize.pkl"
 # The gait or policy files, in verify's order of precedence (the first a folder holds is
 # the one scored): an exported policy, a Stable-Baselines3 policy (model and normalizer),
@@ -163,6 +163,11 @@ def trials_refusal(card: dict, trials: list[dict], steps: int) -> str | None:
             return f"its trial table's {t['tier']} seed {t['seed']} ends at step {t['fall_step']}"
         if t["cause"] not in ("", *electrical.CAUSES) or bool(t["cause"]) != ended:
             return f"its trial table's {t['tier']} seed {t['seed']} has cause {t['cause']!r}"
+        if not abs(t["distance_m"]) <= sample.MAX_TRIAL_DISTANCE_M:
+            return (
+                f"its trial table's {t['tier']} seed {t['seed']} walks {t['distance_m']!r} m, "
+                f"beyond the {sample.MAX_TRIAL_DISTANCE_M:g} m a trial may claim"
+            )
     by_tier = {tier: [t for t in trials if t["tier"] == tier] for tier in tiers}
     fresh = {tier: _card_row(rows, steps) for tier, rows in by_tier.items()}
     fresh["all"] = _card_row([t for tier in tiers for t in by_tier[tier]], steps)
@@ -248,6 +253,22 @@ def _read_json(path: str) -> dict:
     return value
 
 
+# A submission's folder while it is written (`submit.partial_folder`): `.<name>.partial-<hex>`.
+PARTIAL_NAME = re.compile(r"^\..+\.partial-[0-9a-f]+$")
+# What makes a folder look like a run, or part of one.
+RUN_MARKS = frozenset(
+    {"summary.json", "config.json", "trials.csv", "versions.json", *(f[0] for f in ARTIFACTS)}
+)
+
+
+def looks_like_run(dirpath: str, names: Iterable[str]) -> bool:
+    """Whether a folder holds a run or part of one (`RUN_MARKS`), or is a submission's
+    half-written folder: what the board lists, admitted or not."""
+    return bool(RUN_MARKS & set(names)) or bool(
+        PARTIAL_NAME.match(os.path.basename(os.path.normpath(dirpath)))
+    )
+
+
 def run_refusal(run_dir: str, version: int | None = None) -> str | None:
     """Why the board of `version` refuses one run folder (None: admitted, copies aside).
 
@@ -258,6 +279,11 @@ def run_refusal(run_dir: str, version: int | None = None) -> str | None:
     Returns:
       A one-line reason, or None.
     """
+    if PARTIAL_NAME.match(os.path.basename(os.path.normpath(run_dir))):
+        return (
+            "a submission's half-written folder: its process ended before the run was "
+            "complete (delete it and submit again)"
+        )
     missing = missing_files(run_dir)
     if missing:
         return "missing " + ", ".join(missing)
@@ -322,14 +348,6 @@ def _refusal(run_dir: str, version: int | None) -> str | None:
     return None
 
 
-def _digest(run_dir: str, names: Iterable[str]) -> str:
-    digest = hashlib.sha256()
-    for name in names:
-        with open(os.path.join(run_dir, name), "rb") as f:
-            digest.update(f.read())
-    return digest.hexdigest()
-
-
 def run_identity(run_dir: str) -> tuple[str, str, str]:
     """A run folder's method, training task and configuration (its name less the seed)."""
     parts = os.path.normpath(os.path.abspath(run_dir)).split(os.sep)
@@ -351,43 +369,51 @@ def trained_version(run_dir: str) -> int:
 
 def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, str]:
     """The runs the board of `version` refuses, each with its reason (`run_refusal`), and
-    the copies: a run whose trial table or gait or policy file is byte for byte that of an
-    earlier run (in the order given) of the same configuration (method, training task,
-    configuration, version trained under).
+    the copies: a run whose trial outcomes, or whose gait or policy, equal as values those
+    of an earlier run trained under the same benchmark version (`cpg_suite.protocol.copies`),
+    in any configuration of any method. Earlier: the run that says it started first
+    (`copies.started`), then path order. Runs trained under different versions are not
+    compared: a version-1 run is listed beside its version-2 re-run, never ranked with it
+    (six shipped CEM seeds trained to the same gait under both: the limit never bit).
 
     Args:
-      run_dirs: Run folders, in path order.
+      run_dirs: Run folders.
       version: The board's benchmark version (None: each run's card as it stands).
 
     Returns:
       {run folder: reason} for the refused runs.
     """
-    refused, seen = {}, {}
-    for run_dir in run_dirs:
+    run_dirs = list(run_dirs)
+    refused, kept = {}, []
+    for run_dir in sorted(run_dirs, key=lambda d: (copies.started(d), d)):
         reason = run_refusal(run_dir, version)
-        if reason:
+        if reason is None:
+            reason, fingerprint = _copy_refusal(run_dir, version, kept)
+            if reason is None:
+                kept.append((run_dir, trained_version(run_dir), fingerprint))
+        if reason is not None:
             refused[run_dir] = reason
-            continue
-        summary = _read_json(os.path.join(run_dir, "summary.json"))
-        card = card_under(summary, version)
-        current = summary["test"].get("benchmark_version", 1)
-        trials_name = trials_file(card.get("benchmark_version", 1), current)
-        key = (*run_identity(run_dir), trained_version(run_dir))
-        prints = {
-            trials_name: _digest(run_dir, [trials_name]),
-            "gait or policy": _digest(run_dir, artifact_files(run_dir)),
-        }
-        for what, value in prints.items():
-            first = seen.get((key, what, value))
-            if first is not None:
-                refused[run_dir] = (
-                    f"a copy of {first}: the same {what}, byte for byte (one run, not another seed)"
-                )
-                break
-        else:
-            for what, value in prints.items():
-                seen[(key, what, value)] = os.path.join(*_tail(run_dir))
-    return refused
+    return {d: refused[d] for d in run_dirs if d in refused}
+
+
+def _copy_refusal(run_dir: str, version: int | None, kept: list) -> tuple:
+    """Why an admissible run is a copy of one of `kept` (None) and its fingerprint."""
+    summary = _read_json(os.path.join(run_dir, "summary.json"))
+    card = card_under(summary, version)
+    current = summary["test"].get("benchmark_version", 1)
+    trials_name = trials_file(card.get("benchmark_version", 1), current)
+    trials = read_trials(os.path.join(run_dir, trials_name))
+    try:
+        fingerprint = copies.fingerprint(run_dir, artifact_files(run_dir), trials)
+    except (OSError, ValueError, KeyError, TypeError, SyntaxError) as e:
+        return f"unreadable gait or policy ({type(e).__name__}: {e})", None
+    version_trained = trained_version(run_dir)
+    for earlier, their_version, theirs in kept:
+        same = their_version == version_trained and copies.copy_of(fingerprint, theirs)
+        if same:
+            where = os.path.join(*_tail(earlier))
+            return f"a copy of {where}: the same {same} as values (one run, not another)", None
+    return None, fingerprint
 
 
 def _tail(run_dir: str) -> list[str]:

@@ -239,25 +239,76 @@ def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> tuple[dict,
     seeds = protocol.held_out_seeds(settings.seeds)
     per_tier, sim_steps = {}, 0
     for tier in progress.track(settings.tiers, desc="tiers", unit="tier"):
-        with evaluation.open_evaluator(
-            tier,
-            settings.steps,
-            settings.threads,
-            settings.backend,
-            settings.ray_address,
-            settings.controller,
-            task_kwargs=settings.task_kwargs(),
-        ) as evaluator:
-            result = evaluator.evaluate(amplitudes, seeds, quality=True)
-        per_tier[tier] = {
-            "d": result.distance_m[0],
-            "f": result.fell[0],
-            "s": result.fall_step[0],
-            "c": result.cause[0],
-            "q": {f: v[0] for f, v in result.quality.items()},
-        }
-        sim_steps += result.sim_steps
+        per_tier[tier], steps = _gait_tier(amplitudes, tier, seeds, settings)
+        sim_steps += steps
     return per_tier, _card(per_tier, settings, {"sim_steps": sim_steps})
+
+
+def _gait_tier(amplitudes: np.ndarray, tier: str, seeds, settings: ScoreSettings) -> tuple:
+    """A gait's trials on one tier's seeds: their arrays (`d`, `f`, `s`, `c`, `q`) and the
+    physics steps they took."""
+    with evaluation.open_evaluator(
+        tier,
+        settings.steps,
+        settings.threads,
+        settings.backend,
+        settings.ray_address,
+        settings.controller,
+        task_kwargs=settings.task_kwargs(),
+    ) as evaluator:
+        result = evaluator.evaluate(amplitudes, list(seeds), quality=True)
+    arrays = {
+        "d": result.distance_m[0],
+        "f": result.fell[0],
+        "s": result.fall_step[0],
+        "c": result.cause[0],
+        "q": {f: v[0] for f, v in result.quality.items()},
+    }
+    return arrays, result.sim_steps
+
+
+def seed_trials(gait_or_policy, settings: ScoreSettings, seeds_by_tier: dict) -> list[dict]:
+    """The trials of a gait or a policy on chosen test seeds of each tier, as the card's
+    trial table holds them (`TRIAL_FIELDS`): each trial is the one the full card runs, bit
+    for bit (a trial depends only on its tier and seed).
+
+    Args:
+      gait_or_policy: The gait's parameters (an array), or a policy (a callable).
+      settings: What the card measures (`tiers` and `seeds` unused).
+      seeds_by_tier: {tier: [seed, ...]}, in the order wanted.
+
+    Returns:
+      One row per chosen trial, tier by tier.
+    """
+    rows = []
+    tiers = [tier for tier, seeds in seeds_by_tier.items() if seeds]
+    if callable(gait_or_policy):
+        done = {
+            tiers[i]: _policy_tier(gait_or_policy, tiers[i], seeds_by_tier[tiers[i]], settings)
+            for i in _order(gait_or_policy, len(tiers))
+        }
+    for tier in tiers:
+        seeds = seeds_by_tier[tier]
+        if callable(gait_or_policy):
+            results = done[tier]
+            d, f, s, c = (
+                [r[k] for r in results] for k in ("distance_m", "fell", "fall_step", "cause")
+            )
+        else:
+            arrays, _ = _gait_tier(np.asarray(gait_or_policy), tier, seeds, settings)
+            d, f, s, c = arrays["d"], arrays["f"], arrays["s"], arrays["c"]
+        rows += [
+            {
+                "tier": tier,
+                "seed": seed,
+                "distance_m": float(d[i]),
+                "fell": bool(f[i]),
+                "fall_step": int(s[i]),
+                "cause": cause_name(c[i]),
+            }
+            for i, seed in enumerate(seeds)
+        ]
+    return rows
 
 
 def policy_trial(
@@ -492,18 +543,15 @@ def score_policy_trials(
       `(card, trials)`, as `score_gait_trials`.
     """
     settings = settings or ScoreSettings()
+    seeds = protocol.held_out_seeds(settings.seeds)
+    tiers = settings.tiers
+    done = {
+        tiers[i]: _policy_tier(policy, tiers[i], seeds, settings)
+        for i in _order(policy, len(tiers))
+    }
     per_tier, sim_steps, rows = {}, 0, []
-    for tier in settings.tiers:
-        seeds = protocol.held_out_seeds(settings.seeds)
-        if hasattr(policy, "act_batch"):
-            trials = batched_policy_trials(
-                policy, tier, seeds, settings.steps, settings.task_kwargs()
-            )
-        else:
-            trials = [
-                policy_trial(policy, tier, seed, settings.steps, settings.task_kwargs())
-                for seed in progress.track(seeds, desc=tier)
-            ]
+    for tier in tiers:
+        trials = done[tier]
         per_tier[tier] = {
             "d": np.array([r["distance_m"] for r in trials]),
             "f": np.array([r["fell"] for r in trials]),
@@ -525,20 +573,46 @@ def score_policy_trials(
     return _card(per_tier, settings, {"sim_steps": sim_steps}), rows
 
 
+def _policy_tier(policy, tier: str, seeds, settings: ScoreSettings) -> list[dict]:
+    """A policy's trials on one tier's seeds (`batched_policy_trials` or `policy_trial`), in
+    the order of `seeds`; run in the order the policy's `trial_order` draws, if it has one
+    (`sandbox.IsolatedPolicy`: a trial depends only on its tier and seed, so the results
+    are the same, and a policy counting its trials learns nothing of which one it is in)."""
+    seeds = list(seeds)
+    order = _order(policy, len(seeds))
+    run = [seeds[i] for i in order]
+    if hasattr(policy, "act_batch"):
+        done = batched_policy_trials(policy, tier, run, settings.steps, settings.task_kwargs())
+    else:
+        done = [
+            policy_trial(policy, tier, seed, settings.steps, settings.task_kwargs())
+            for seed in progress.track(run, desc=tier)
+        ]
+    results = [None] * len(seeds)
+    for i, result in zip(order, done):
+        results[i] = result
+    return results
+
+
+def _order(policy, n: int) -> list[int]:
+    """The order to run n trials or tiers of a policy in (`_policy_tier`)."""
+    draw = getattr(policy, "trial_order", None)
+    return [int(i) for i in draw(n)] if callable(draw) else list(range(n))
+
+
 class OpenLoopPolicy:
     """An open-loop CPG gait as a policy: the CPG's targets, one per call since `reset()`."""
 
     def __init__(self, amplitudes: np.ndarray, steps: int = 1000):
-        self._actions = None
-        self._amplitudes = np.asarray(amplitudes, dtype=np.float64)
+        # Made here, once: a policy process's trials start from this state (`sandbox`).
+        env = cpg_suite.load("darwin_walk")
+        amplitudes = np.asarray(amplitudes, dtype=np.float64)
+        targets = cpg.trajectories(amplitudes, steps, env.control_timestep())
+        self._actions = env.physics.targets_to_action(targets[0])
         self._steps = steps
         self._t = 0
 
     def __call__(self, observation: dict) -> np.ndarray:
-        if self._actions is None:
-            env = cpg_suite.load("darwin_walk")
-            targets = cpg.trajectories(self._amplitudes, self._steps, env.control_timestep())
-            self._actions = env.physics.targets_to_action(targets[0])
         action = self._actions[self._t % self._steps]
         self._t += 1
         return action

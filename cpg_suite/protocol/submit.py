@@ -33,6 +33,7 @@ import dataclasses
 import json
 import os
 import re
+import secrets
 import shutil
 
 from absl import flags
@@ -199,16 +200,32 @@ def submit_code(path: str, submission: Submission) -> str:
     )
 
 
+PARTIAL = ".partial-"  # a submission's folder while it is written (`partial_folder`)
+
+
+def partial_folder(run_dir: str) -> str:
+    """Where a submission is written before it is renamed into `run_dir`: a hidden folder
+    beside it (`.<run name>.partial-<random>`), which the board lists as half-written if a
+    killed process leaves it behind."""
+    parent, name = os.path.split(os.path.normpath(run_dir))
+    return os.path.join(parent, f".{name}{PARTIAL}{secrets.token_hex(4)}")
+
+
 def _submit(submission: Submission, write_artifact, trust_code: bool = False) -> str:
+    """Writes the run into a temporary folder and renames it into place once complete: the
+    run folder holds a whole run or does not exist."""
     run_dir = submission.run_dir()
     if os.path.exists(run_dir):
         raise ValueError(f"{run_dir} exists: a submission makes a new run")
-    os.makedirs(run_dir)
+    partial = partial_folder(run_dir)
+    os.makedirs(partial)
     try:
-        return _score_into(run_dir, submission, write_artifact, trust_code)
+        _score_into(partial, submission, write_artifact, trust_code)
+        os.rename(partial, run_dir)  # fails if run_dir appeared meanwhile: nothing replaced
     except BaseException:
-        shutil.rmtree(run_dir, ignore_errors=True)  # no half-made run stays behind
+        shutil.rmtree(partial, ignore_errors=True)  # no half-made run stays behind
         raise
+    return run_dir
 
 
 def _score_into(run_dir: str, submission: Submission, write_artifact, trust_code: bool) -> str:

@@ -40,8 +40,9 @@ Code runs only when asked (docs/protocol.md#data-and-code). The gait, an exporte
 an action table are data: JSON, and NumPy arrays read without unpickling. A run whose
 policy is code — `policy_code.py`, or an SB3 policy's pickles, which run code when loaded —
 is scored only with `--trust_code` (`trust_code=True`), or, for SB3 pickles, when the
-SHA-256 of each is listed in `results/protocol/trusted_artifacts.txt` (the shipped runs',
-tracked with the project: `trusted_artifacts_text`, `--write_trusted`); otherwise it is
+SHA-256 of each is listed in the package's `cpg_suite/data/trusted_pickles.txt` (the
+shipped runs': `trusted_artifacts_text`, `--write_trusted`) or in a list given with
+`--trusted_list` — never in a file found in the working directory; otherwise it is
 `REFUSED` with the reason and nothing of it is loaded (`code_refusal`).
 
 When the score card gains a measure, `--update_cards` re-scores every shipped run, checks
@@ -63,13 +64,11 @@ import concurrent.futures
 import contextlib
 import dataclasses
 import hashlib
-import importlib.util
 import json
 import multiprocessing
 import os
 import re
 import shutil
-import sys
 from collections.abc import Callable
 
 import numpy as np
@@ -77,7 +76,7 @@ from absl import flags
 
 from cpg_suite import cli, cpg, feedback, progress, protocol
 from cpg_suite.harness import exported, runs
-from cpg_suite.protocol import admission, score
+from cpg_suite.protocol import admission, audit, sample, sandbox, score
 
 ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
 # Copied as they are (config.json is relocated, summary.json gets the fresh card): a gait
@@ -90,20 +89,20 @@ COPIED_CODE = (admission.CODE,)  # a submitted policy's code
 _GAIT, _POLICY, _EXPORTED = COPIED[0], COPIED_POLICY[0], COPIED_EXPORTED[0]
 _ARTIFACT_NAMES = {files[0] for files in admission.ARTIFACTS}
 QUICK_SEEDS = 5  # test seeds per tier in a quick verification
-# The project's list of trusted pickles (tracked with it, beside the shipped runs): the
-# SHA-256 and path of every Stable-Baselines3 file under `ARTIFACTS`, as `sha256sum` writes
-# them (`sha256sum -c results/protocol/trusted_artifacts.txt` in the repository checks it).
-TRUSTED_LIST = os.path.join("results", "protocol", "trusted_artifacts.txt")
+# The project's list of trusted pickles, shipped inside the package (never read from the
+# working directory): the SHA-256 and path of every Stable-Baselines3 file under
+# `ARTIFACTS`, as `sha256sum` writes them (in a checkout, `sha256sum -c
+# cpg_suite/data/trusted_pickles.txt` checks it). `--trusted_list=PATH` names another.
+TRUSTED_LIST = os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data", "trusted_pickles.txt"
+)
+TRUSTED_NAME = "cpg_suite/data/trusted_pickles.txt"  # how messages name it
 _CHECKOUT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 def repository() -> str:
-    """The repository whose shipped runs and trusted list are the project's: the checkout
-    this module sits in, or, for an installed package (pip install .), the working
-    directory where it holds the list (a checkout's root); else the module's folder."""
-    for root in (_CHECKOUT, os.getcwd()):
-        if os.path.isfile(os.path.join(root, TRUSTED_LIST)):
-            return root
+    """The checkout this module sits in (its shipped runs' paths in the trusted list are
+    relative to it). Never the working directory: nothing found there is trusted."""
     return _CHECKOUT
 
 
@@ -144,7 +143,7 @@ def trusted_digests(path: str | None = None) -> frozenset[str]:
     """The SHA-256 digests of the trusted pickles (`TRUSTED_LIST`).
 
     Args:
-      path: The list (None: the project's, `TRUSTED_LIST` in the repository).
+      path: The list (None: the package's, `TRUSTED_LIST`).
 
     Returns:
       The digests; none if the list does not exist.
@@ -152,7 +151,7 @@ def trusted_digests(path: str | None = None) -> frozenset[str]:
     Raises:
       ValueError: On a line that is not `<sha256>  <path>`.
     """
-    path = os.path.join(repository(), TRUSTED_LIST) if path is None else path
+    path = TRUSTED_LIST if path is None else path
     if not os.path.isfile(path):
         return frozenset()
     digests = set()
@@ -212,45 +211,9 @@ def code_refusal(
         return None
     return (
         f"its {' and '.join(untrusted)} (pickles: loading runs code) "
-        f"{'is' if len(untrusted) == 1 else 'are'} not in {TRUSTED_LIST}: re-run with "
+        f"{'is' if len(untrusted) == 1 else 'are'} not in {TRUSTED_NAME}: re-run with "
         "--trust_code to load them"
     )
-
-
-def load_policy_code(path: str) -> Callable[[dict], np.ndarray]:
-    """Executes a policy's Python file and returns its `make_policy()`: code runs here.
-
-    The file is executed as a module of its own (importable by name only while it runs);
-    it may import what is installed (NumPy, `cpg_suite`).
-
-    Args:
-      path: The file (`policy_code.py`).
-
-    Returns:
-      The policy: a callable from the task's observation to a (12,) action, with `reset()`
-      called before each trial if it has one.
-
-    Raises:
-      ValueError: If the file defines no `make_policy()` or it returns no callable.
-      Exception: Whatever the file raises.
-    """
-    name = f"_policy_code_{file_digest(path)[:16]}"
-    spec = importlib.util.spec_from_file_location(name, path)
-    if spec is None or spec.loader is None:
-        raise ValueError(f"{path} cannot be loaded as Python")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # while it runs: what dataclasses and pickle look up
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.modules.pop(name, None)
-    make = getattr(module, "make_policy", None)
-    if not callable(make):
-        raise ValueError(f"{path} defines no make_policy()")
-    policy = make()
-    if not callable(policy):
-        raise ValueError(f"{path}: make_policy() returned {type(policy).__name__}, not a policy")
-    return policy
 
 
 def card_settings(
@@ -299,7 +262,11 @@ def gait_params(run_dir: str, controller: str) -> np.ndarray:
 
 
 def rescore(
-    run_dir: str, seeds: int | None = None, threads: int = 2, trust_code: bool = False
+    run_dir: str,
+    seeds: int | None = None,
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
 ) -> tuple[dict, list[dict]]:
     """Scores a run's selected gait or policy again: `(card, trials)` as
     `score.score_gait_trials`.
@@ -309,12 +276,13 @@ def rescore(
       seeds: Test seeds per tier (None: as many as the run's card has).
       threads: Evaluator threads (the results do not depend on it).
       trust_code: Whether a policy that is code may run (`code_refusal`).
+      trusted: The trusted pickles' digests (None: the package's list).
 
     Raises:
       OSError, KeyError, ValueError: On a run without a readable config or gait.
       UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
     """
-    return score_run(run_dir, run_settings(run_dir, seeds, threads), trust_code)
+    return score_run(run_dir, run_settings(run_dir, seeds, threads), trust_code, trusted)
 
 
 def run_settings(run_dir: str, seeds: int | None = None, threads: int = 2) -> score.ScoreSettings:
@@ -324,7 +292,10 @@ def run_settings(run_dir: str, seeds: int | None = None, threads: int = 2) -> sc
 
 
 def score_run(
-    run_dir: str, settings: score.ScoreSettings, trust_code: bool = False
+    run_dir: str,
+    settings: score.ScoreSettings,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
 ) -> tuple[dict, list[dict]]:
     """Scores a run's selected gait or policy under `settings`: `(card, trials)` as
     `score.score_gait_trials` (an SB3 policy with single-threaded torch).
@@ -332,19 +303,22 @@ def score_run(
     Raises:
       UntrustedCode: If its policy is code not trusted (`code_refusal`; not loaded).
     """
-    policy = shipped_policy(run_dir, trust_code)
+    policy = shipped_policy(run_dir, trust_code, trusted)
     if policy is None:
         return score.score_gait_trials(gait_params(run_dir, settings.controller), settings)
     with policy_threads(run_dir):
         return score.score_policy_trials(policy, settings)
 
 
-def shipped_policy(run_dir: str, trust_code: bool = False) -> Callable[[dict], np.ndarray] | None:
+def shipped_policy(
+    run_dir: str, trust_code: bool = False, trusted: frozenset[str] | None = None
+) -> Callable[[dict], np.ndarray] | None:
     """A run's selected policy, or None if the run selected a gait.
 
     Args:
       run_dir: A run directory or a shipped run.
       trust_code: Whether a policy that is code may run whatever it is (`code_refusal`).
+      trusted: The trusted pickles' digests (None: the package's list).
 
     Returns:
       The exported (`selected_policy.npz`), action-table (`selected_actions.npy`), coded
@@ -358,7 +332,7 @@ def shipped_policy(run_dir: str, trust_code: bool = False) -> Callable[[dict], n
     files = admission.artifact_files(run_dir)
     if files in ((), (_GAIT,)):
         return None
-    reason = code_refusal(run_dir, trust_code)
+    reason = code_refusal(run_dir, trust_code, trusted)
     if reason:
         raise UntrustedCode(f"{run_dir}: {reason}")
     path = os.path.join(run_dir, files[0])
@@ -367,7 +341,7 @@ def shipped_policy(run_dir: str, trust_code: bool = False) -> Callable[[dict], n
     if files[0] == admission.ACTIONS:
         return exported.ActionTable.load(path)
     if files[0] == admission.CODE:
-        return load_policy_code(path)
+        return sandbox.IsolatedPolicy(path)  # its own process: it sees observations only
     from cpg_suite.harness import sb3  # the `rl` extra: only runs of policy learners
 
     config = runs.read_json(os.path.join(run_dir, "config.json"))
@@ -535,22 +509,43 @@ def ship_all(
     return shipped
 
 
-def update_card(run_dir: str, threads: int = 2, trust_code: bool = False) -> None:
+def fresh_card(
+    run_dir: str,
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+) -> dict:
+    """A shipped run scored again, its card made anew, if its trials are unchanged.
+
+    Raises:
+      ValueError: If a trial differs from `trials.csv`.
+      UntrustedCode: If its policy is code not trusted (nothing is loaded).
+    """
+    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code, trusted=trusted)
+    if trials != read_trials(os.path.join(run_dir, "trials.csv")):
+        raise ValueError(f"{run_dir}: its trials changed; ship the run again instead")
+    return card
+
+
+def update_card(
+    run_dir: str,
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+) -> None:
     """Re-scores a shipped run and stores the new card, if its trials are unchanged.
 
     Args:
       run_dir: A shipped run.
       threads: Evaluator threads.
       trust_code: Whether a policy that is code may run (`code_refusal`).
+      trusted: The trusted pickles' digests (None: the package's list).
 
     Raises:
       ValueError: If a trial differs from `trials.csv` (nothing is written then).
       UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
-    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code)
-    if trials != read_trials(os.path.join(run_dir, "trials.csv")):
-        raise ValueError(f"{run_dir}: its trials changed; ship the run again instead")
-    _store_card(run_dir, card)
+    _store_card(run_dir, fresh_card(run_dir, threads, trust_code, trusted))
 
 
 def _store_card(run_dir: str, card: dict) -> None:
@@ -564,7 +559,12 @@ def _store_card(run_dir: str, card: dict) -> None:
     runs.write_json(versions_path, versions)
 
 
-def rescore_run(run_dir: str, threads: int = 2, trust_code: bool = False) -> None:
+def rescore_run(
+    run_dir: str,
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+) -> None:
     """Re-scores a shipped run and stores its card and trials, whatever they were.
 
     For a change to the code that runs a shipped policy, not to the policy: its test card
@@ -579,13 +579,17 @@ def rescore_run(run_dir: str, threads: int = 2, trust_code: bool = False) -> Non
       OSError, KeyError, ValueError: On a run without a readable config or policy.
       UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
-    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code)
+    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code, trusted=trusted)
     write_trials(os.path.join(run_dir, "trials.csv"), trials)
     _store_card(run_dir, card)
 
 
 def verify_run(
-    run_dir: str, quick: bool = False, threads: int = 2, trust_code: bool = False
+    run_dir: str,
+    quick: bool = False,
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
 ) -> list[str]:
     """Re-scores one shipped run; the differences from what it stores (empty: none).
 
@@ -594,6 +598,7 @@ def verify_run(
       quick: Only the first `QUICK_SEEDS` test seeds per tier, compared trial by trial.
       threads: Evaluator threads.
       trust_code: Whether a policy that is code may run (`code_refusal`).
+      trusted: The trusted pickles' digests (None: the package's list).
 
     Raises:
       UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
@@ -601,7 +606,7 @@ def verify_run(
     stored_trials = read_trials(os.path.join(run_dir, "trials.csv"))
     stored_seeds = len({t["seed"] for t in stored_trials})
     seeds = min(QUICK_SEEDS, stored_seeds) if quick else None
-    card, trials = rescore(run_dir, seeds, threads, trust_code)
+    card, trials = rescore(run_dir, seeds, threads, trust_code, trusted)
     if quick:
         wanted = {(t["tier"], t["seed"]) for t in trials}
         stored_trials = [t for t in stored_trials if (t["tier"], t["seed"]) in wanted]
@@ -616,6 +621,113 @@ def verify_run(
     return problems
 
 
+def sample_run(
+    run_dir: str,
+    chosen: dict[str, list[int]],
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+) -> list[str]:
+    """Re-scores chosen trials of a shipped run (`sample.draw`); the ones that differ from
+    its trial table (empty: none).
+
+    Raises:
+      UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
+    """
+    settings = run_settings(run_dir, threads=threads)
+    policy = shipped_policy(run_dir, trust_code, trusted)
+    artifact = gait_params(run_dir, settings.controller) if policy is None else policy
+    with policy_threads(run_dir):
+        fresh = score.seed_trials(artifact, settings, chosen)
+    return sample.compare(fresh, read_trials(os.path.join(run_dir, "trials.csv")))
+
+
+def _check_run(run_dir: str, how: dict) -> list[str]:
+    """`verify_run` or, with `how["sample"]`, `sample_run` on trials drawn for this run."""
+    if not how["sample"]:
+        return verify_run(run_dir, how["quick"], how["threads"], how["trust_code"], how["trusted"])
+    keys = [(t["tier"], t["seed"]) for t in read_trials(os.path.join(run_dir, "trials.csv"))]
+    name = "/".join(os.path.normpath(os.path.abspath(run_dir)).split(os.sep)[-3:])
+    chosen = sample.draw(keys, how["sample"], how["entropy"], name)
+    return sample_run(run_dir, chosen, how["threads"], how["trust_code"], how["trusted"])
+
+
+def audit_run(run_dir: str, seeds: list[int], how: dict) -> tuple[dict, dict]:
+    """A run's card scores and its scores on audit seeds (`audit.scores`), per tier.
+
+    Raises:
+      UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
+    """
+    settings = run_settings(run_dir, threads=how["threads"])
+    policy = shipped_policy(run_dir, how["trust_code"], how["trusted"])
+    artifact = gait_params(run_dir, settings.controller) if policy is None else policy
+    with policy_threads(run_dir):
+        fresh = score.seed_trials(artifact, settings, {t: seeds for t in settings.tiers})
+    card = audit.scores(read_trials(os.path.join(run_dir, "trials.csv")))
+    return card, audit.scores(fresh)
+
+
+def audit_runs(
+    artifacts: str,
+    seeds: int,
+    log: Callable[[str], None] = print,
+    entropy: int | None = None,
+    jobs: int = 1,
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted_list: str | None = None,
+) -> int:
+    """Audits every admitted run on fresh seeds (`cpg_suite.protocol.audit`): one line per
+    configuration (method, training task, configuration, version trained under).
+
+    Args:
+      artifacts: The folder of runs.
+      seeds: Audit seeds per tier (the same for every run of an audit).
+      log: Given the entropy's line, a line per configuration, and a last line.
+      entropy: The draw's entropy (None: fresh; logged, so that an audit can be replayed).
+      jobs, threads, trust_code, trusted_list: As `verify`'s.
+
+    Returns:
+      How many configurations score better on their card than on the audit.
+
+    Raises:
+      ValueError: If `artifacts` holds no run folder.
+    """
+    folders = run_folders(artifacts)
+    if not folders:
+        raise ValueError(f"no shipped runs under {artifacts}")
+    refused = admission.refusals(folders)
+    trusted = trusted_digests(trusted_list)
+    chosen = [
+        d for d in folders if d not in refused and code_refusal(d, trust_code, trusted) is None
+    ]
+    entropy = sample.fresh_entropy() if entropy is None else entropy
+    drawn = audit.draw_seeds(seeds, entropy)
+    log(f"audit: {seeds} seeds a tier, drawn with --entropy={entropy}; {len(chosen)} runs")
+    how = {"threads": threads, "trust_code": trust_code, "trusted": trusted}
+    with contextlib.ExitStack() as stack:
+        if jobs > 1:
+            spawn = multiprocessing.get_context("spawn")
+            pool = stack.enter_context(
+                concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn)
+            )
+            futures = {d: pool.submit(audit_run, d, drawn, how) for d in chosen}
+            results = {d: futures[d].result() for d in chosen}
+        else:
+            results = {d: audit_run(d, drawn, how) for d in chosen}
+    groups: dict[tuple, list] = {}
+    for run_dir in chosen:
+        key = (*admission.run_identity(run_dir), admission.trained_version(run_dir))
+        groups.setdefault(key, []).append(results[run_dir])
+    flagged = 0
+    for (method, task, config, version), pairs in sorted(groups.items()):
+        found = audit.gap(pairs)
+        flagged += found.verdict == "card above audit"
+        log(f"{method}/{task}/{config} (trained v{version}, {len(pairs)} runs): {found.text()}")
+    log(f"{flagged} of {len(groups)} configurations score better on their card than on the audit")
+    return flagged
+
+
 def history_trials_file(version: int) -> str:
     """The trial table of a run's card under an earlier benchmark version."""
     return f"trials_v{version}.csv"
@@ -626,6 +738,7 @@ def upgrade_run(
     version: int = protocol.BENCHMARK_VERSION,
     threads: int = 2,
     trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
 ) -> bool:
     """Re-scores a shipped run under a new benchmark version, keeping its card as history.
 
@@ -651,7 +764,7 @@ def upgrade_run(
     old = runs.read_json(summary_path)["test"].get("benchmark_version", 1)
     if old == version:
         return False
-    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code)
+    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code, trusted=trusted)
     if trials != read_trials(os.path.join(run_dir, "trials.csv")):
         raise ValueError(f"{run_dir}: its trials under version {old} changed")
     write_trials(os.path.join(run_dir, history_trials_file(old)), trials)
@@ -662,7 +775,7 @@ def upgrade_run(
     settings = dataclasses.replace(
         card_settings(config, threads=threads), benchmark_version=version
     )
-    card, trials = score_run(run_dir, settings, trust_code)
+    card, trials = score_run(run_dir, settings, trust_code, trusted)
     write_trials(os.path.join(run_dir, "trials.csv"), trials)
     _store_card(run_dir, card)
     return True
@@ -696,18 +809,27 @@ def verify(
     log: Callable[[str], None] = print,
     jobs: int = 1,
     trust_code: bool = False,
+    sample_trials: int = 0,
+    entropy: int | None = None,
+    trusted_list: str | None = None,
 ) -> int:
     """Re-scores the shipped runs under `artifacts`.
 
     Args:
       artifacts: The folder of shipped runs.
-      quick: A sample (`_quick_sample`, `verify_run`'s quick check).
+      quick: The first `QUICK_SEEDS` test seeds of every tier (20 of a card's 200 trials)
+        of the first run of each configuration only, compared trial by trial: a check of
+        the code on this machine, not of the runs (`_quick_sample`).
       threads: Evaluator threads of each run.
       log: Given a line per run, in the order of the runs, and a last line.
       jobs: Runs re-scored at once, each in its own process (1: in this one). The runs are
         independent: the outcome does not depend on it.
       trust_code: Whether policies that are code may run whatever they are
         (`code_refusal`; `--trust_code`).
+      sample_trials: If > 0, instead: this many trials of every run, drawn at random
+        (`cpg_suite.protocol.sample`), compared with its trial table.
+      entropy: The draw's entropy (None: fresh from the operating system; logged first).
+      trusted_list: A list of trusted pickles' digests (None: the package's).
 
     Every run folder is first checked as the leaderboard checks it (`admission.refusals`:
     the files verify needs, a card made under the protocol's card settings that its
@@ -717,8 +839,8 @@ def verify(
     scored again (nothing of it is loaded).
 
     Returns:
-      The number of runs that differ or are refused (0: every card and trial reproduced
-      bit for bit).
+      The number of runs that differ or are refused (0: every card and trial checked
+      reproduced bit for bit).
 
     Raises:
       ValueError: If `artifacts` holds no run folder.
@@ -727,13 +849,24 @@ def verify(
     if not folders:
         raise ValueError(f"no shipped runs under {artifacts}")
     refused = admission.refusals(folders)
-    trusted = None if trust_code else trusted_digests()
+    trusted = trusted_digests(trusted_list)
     for run_dir in folders:
         reason = None if run_dir in refused else code_refusal(run_dir, trust_code, trusted)
         if reason:
             refused[run_dir] = reason
     shipped = [run_dir for run_dir in folders if run_dir not in refused]
-    chosen = _quick_sample(shipped) if quick else shipped
+    chosen = _quick_sample(shipped) if quick and not sample_trials else shipped
+    if sample_trials:
+        entropy = sample.fresh_entropy() if entropy is None else entropy
+        log(f"sample: {sample_trials} trials a run, drawn with --entropy={entropy}")
+    how = {
+        "quick": quick,
+        "threads": threads,
+        "trust_code": trust_code,
+        "trusted": trusted,
+        "sample": sample_trials,
+        "entropy": entropy,
+    }
     failed = len(refused)
     with contextlib.ExitStack() as stack:
         if jobs > 1:
@@ -742,12 +875,12 @@ def verify(
                 concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn)
             )
             futures = {  # the dearest first, so that no long run starts last
-                run_dir: pool.submit(verify_run, run_dir, quick, threads, trust_code)
+                run_dir: pool.submit(_check_run, run_dir, how)
                 for run_dir in sorted(chosen, key=_expected_cost, reverse=True)
             }
             outcome = lambda run_dir: futures[run_dir].result()  # noqa: E731
         else:
-            outcome = lambda run_dir: verify_run(run_dir, quick, threads, trust_code)  # noqa: E731
+            outcome = lambda run_dir: _check_run(run_dir, how)  # noqa: E731
         for run_dir in sorted([*chosen, *refused]):
             if run_dir in refused:
                 log(f"REFUSED {run_dir}; {refused[run_dir]}")
@@ -756,7 +889,8 @@ def verify(
             failed += bool(problems)
             log(f"{'DIFF' if problems else 'ok  '} {run_dir}" + "".join(f"; {p}" for p in problems))
     total = len(chosen) + len(refused)
-    log(f"{total - failed} of {total} shipped runs reproduced bit for bit")
+    what = f", {sample_trials} random trials each," if sample_trials else ""
+    log(f"{total - failed} of {total} shipped runs{what} reproduced bit for bit")
     return failed
 
 
@@ -792,12 +926,30 @@ def define_flags() -> None:
     flags.DEFINE_bool(
         "write_trusted",
         False,
-        f"Write {TRUSTED_LIST} (every SB3 pickle under --artifacts).",
+        f"Write {TRUSTED_NAME} (every SB3 pickle under --artifacts).",
+    )
+    flags.DEFINE_integer(
+        "sample",
+        0,
+        "Re-score this many random trials of every run (fresh entropy); 0: every trial.",
+    )
+    flags.DEFINE_integer(
+        "entropy", None, "none: fresh. The --sample or --audit draw's entropy, to replay a check."
+    )
+    flags.DEFINE_integer(
+        "audit", 0, "Score every run on this many fresh seeds a tier and compare; 0: no audit."
+    )
+    flags.DEFINE_string(
+        "trusted_list", None, f"none: the package's {TRUSTED_NAME}. A list of trusted pickles."
     )
 
 
 def _maintain(values: flags.FlagValues) -> bool:
-    """Runs --rescore, --upgrade_to or --update_cards, if one is given.
+    """Runs --rescore, --upgrade_to or --update_cards, if one is given: all or nothing.
+
+    Every run it will change is checked first (admitted as verify admits runs, and its
+    policy loadable under the trust given); one that is not stops it before any file is
+    written. `--update_cards` then scores every run before it stores any card.
 
     Args:
       values: The parsed flags.
@@ -807,32 +959,52 @@ def _maintain(values: flags.FlagValues) -> bool:
 
     Raises:
       UntrustedCode: On a run whose policy is code not trusted (`code_refusal`).
+      cli.UsageError: On a run it may not change.
     """
+    if values.rescore is None and values.upgrade_to is None and not values.update_cards:
+        return False
+    trusted = trusted_digests(values.trusted_list)
     if values.rescore is not None:
         chosen = os.path.join(values.artifacts, values.rescore)
         cli.check(
             os.path.isdir(chosen),
             f"--rescore={values.rescore} is not a folder of {values.artifacts}",
         )
-        for run_dir in shipped_runs(chosen):
-            rescore_run(run_dir, values.threads, values.trust_code)
-            progress.write(f"re-scored: {run_dir}")
-        return True
-    if values.upgrade_to is not None:
+        run_dirs = shipped_runs(chosen)
+    else:
         cli.check(
-            values.upgrade_to in protocol.VERSIONS,
+            values.upgrade_to is None or values.upgrade_to in protocol.VERSIONS,
             f"--upgrade_to must be one of {sorted(protocol.VERSIONS)}, got {values.upgrade_to}",
         )
-        for run_dir in shipped_runs(values.artifacts):
-            if upgrade_run(run_dir, values.upgrade_to, values.threads, values.trust_code):
+        run_dirs = shipped_runs(values.artifacts)
+    _check_all(run_dirs, values.trust_code, trusted, admit=values.rescore is None)
+    if values.rescore is not None:
+        for run_dir in run_dirs:
+            rescore_run(run_dir, values.threads, values.trust_code, trusted)
+            progress.write(f"re-scored: {run_dir}")
+    elif values.upgrade_to is not None:
+        for run_dir in run_dirs:
+            if upgrade_run(run_dir, values.upgrade_to, values.threads, values.trust_code, trusted):
                 progress.write(f"upgraded to version {values.upgrade_to}: {run_dir}")
-        return True
-    if values.update_cards:
-        for run_dir in shipped_runs(values.artifacts):
-            update_card(run_dir, values.threads, values.trust_code)
+    else:
+        cards = [
+            (run_dir, fresh_card(run_dir, values.threads, values.trust_code, trusted))
+            for run_dir in run_dirs
+        ]
+        for run_dir, card in cards:
+            _store_card(run_dir, card)
             progress.write(f"card updated: {run_dir}")
-        return True
-    return False
+    return True
+
+
+def _check_all(run_dirs: list[str], trust_code: bool, trusted: frozenset[str], admit: bool) -> None:
+    """Stops, before anything is written, at the first run a maintenance command may not
+    change: one the board refuses (with `admit`) or whose policy may not be loaded."""
+    refused = admission.refusals(run_dirs) if admit else {}
+    for run_dir in run_dirs:
+        reason = refused.get(run_dir) or code_refusal(run_dir, trust_code, trusted)
+        if reason:
+            raise cli.UsageError(f"nothing changed: {run_dir}: {reason}")
 
 
 def main(argv: list[str]) -> None:
@@ -841,6 +1013,20 @@ def main(argv: list[str]) -> None:
     values = flags.FLAGS
     cli.check(values.threads >= 1, f"--threads must be ≥ 1, got {values.threads}")
     cli.check(values.jobs >= 1, f"--jobs must be ≥ 1, got {values.jobs}")
+    cli.check(values.sample >= 0, f"--sample must be ≥ 0 trials, got {values.sample}")
+    cli.check(values.audit >= 0, f"--audit must be ≥ 0 seeds a tier, got {values.audit}")
+    cli.check(
+        not (values.audit and values.sample),
+        "give --audit (fresh seeds) or --sample (the card's own trials), not both",
+    )
+    cli.check(
+        values.entropy is None or values.entropy >= 0,
+        f"--entropy must be ≥ 0, got {values.entropy}",
+    )
+    cli.check(
+        values.trusted_list is None or os.path.isfile(values.trusted_list),
+        f"--trusted_list={values.trusted_list} is not a file",
+    )
     if values.ship_from is not None:
         cli.check(
             os.path.isdir(values.ship_from), f"--ship_from={values.ship_from} is not a directory"
@@ -862,15 +1048,30 @@ def main(argv: list[str]) -> None:
             f"--write_trusted lists the project's runs: --artifacts={values.artifacts} is "
             "outside the repository",
         )
-        path = os.path.join(repository(), TRUSTED_LIST)
-        runs.write_text(path, trusted_artifacts_text(values.artifacts))
-        progress.write(f"wrote {path}")
+        runs.write_text(TRUSTED_LIST, trusted_artifacts_text(values.artifacts))
+        progress.write(f"wrote {TRUSTED_LIST}")
         return
     try:
         if _maintain(values):
             return  # the cards were just made by the same scoring: run verify on its own
     except UntrustedCode as e:
         raise cli.UsageError(str(e)) from None
+    if values.audit:
+        try:
+            flagged = audit_runs(
+                values.artifacts,
+                values.audit,
+                entropy=values.entropy,
+                jobs=values.jobs,
+                threads=values.threads,
+                trust_code=values.trust_code,
+                trusted_list=values.trusted_list,
+            )
+        except ValueError as e:
+            raise cli.UsageError(str(e)) from None
+        if flagged:
+            raise SystemExit(1)
+        return
     try:
         failed = verify(
             values.artifacts,
@@ -878,6 +1079,9 @@ def main(argv: list[str]) -> None:
             values.threads,
             jobs=values.jobs,
             trust_code=values.trust_code,
+            sample_trials=values.sample,
+            entropy=values.entropy,
+            trusted_list=values.trusted_list,
         )
     except ValueError as e:
         raise cli.UsageError(str(e)) from None

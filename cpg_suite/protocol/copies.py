@@ -1,0 +1,203 @@
+"""Copies by value: two runs are one run when their trial outcomes or their gaits or
+policies are equal as values, whatever their bytes (docs/protocol.md#admission).
+
+A run's fingerprint holds
+
+* its trial outcomes: per trial of its card, the tier, the seed, whether it failed, the
+  control step and cause of the failure (equal), and the distance walked (equal within
+  `TRIAL_TOLERANCE_M`);
+* its gait or policy as parsed values: a gait's amplitudes and feedback gains (absent
+  gains are 0, as `feedback.load_params` reads them), an exported policy's arrays or an
+  action table (NumPy, read without unpickling), each equal within `VALUE_RTOL`; a policy's
+  Python file as its syntax tree (comments and layout aside; parsed, never run); a
+  Stable-Baselines3 model's zip members and normalizer as bytes (reading them as values
+  would unpickle them).
+
+Padding in a `.npy` header, a trailing `0` in a CSV number, keys reordered or spaces added
+in JSON, a comment added to code: the values stay, and so does the copy. The tolerances
+catch what the bytes hide too — a gait nudged in its last digits and scored again is the
+same gait. They are choices, far below what separates two honest seeds: a test checks
+that the shipped runs of one trained version lie at least 1000 times the tolerances apart
+(`closest_pairs`).
+
+Nothing here executes code: JSON and CSV are parsed, NumPy arrays are read with
+`allow_pickle=False`, Python is parsed with `ast`, pickles are hashed.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import hashlib
+import json
+import os
+import zipfile
+
+import numpy as np
+
+from cpg_suite import feedback
+
+# m: two trial tables whose outcomes are equal and whose distances all lie this close are
+# one run's (a choice: honest seeds differ by centimetres; a float printed with fewer
+# digits differs by < 1e-15 m).
+TRIAL_TOLERANCE_M = 1e-6
+# Relative: two gaits or policies whose values all lie this close are one (a choice).
+VALUE_RTOL = 1e-6
+VALUE_ATOL = 1e-12
+
+
+@dataclasses.dataclass(frozen=True)
+class Fingerprint:
+    """What a run is, as values (`fingerprint`).
+
+    Attributes:
+      outcomes: Per trial: tier, seed, failed, failure step, cause.
+      distances: Per trial: the distance walked, m.
+      kind: The gait or policy's file name (what kind of artifact).
+      structure: The names, shapes and types its values sit under.
+      values: Its numeric values, one array per name (None: not numeric).
+      digest: A digest of what is not numeric (code's syntax tree, pickles' bytes).
+    """
+
+    outcomes: tuple
+    distances: np.ndarray
+    kind: str
+    structure: tuple
+    values: tuple | None
+    digest: str | None
+
+
+def _sha256(*parts: bytes) -> str:
+    digest = hashlib.sha256()
+    for part in parts:
+        digest.update(len(part).to_bytes(8, "little"))
+        digest.update(part)
+    return digest.hexdigest()
+
+
+def _arrays(named: dict) -> tuple[tuple, tuple]:
+    """Numeric arrays as values; others (an action space's name) as part of the structure."""
+    names = sorted(named)
+    arrays = [np.asarray(named[n]) for n in names]
+    numeric = [a.dtype.kind in "biuf" for a in arrays]
+    structure = tuple(
+        (n, a.shape, a.dtype.str, None if is_number else a.tolist())
+        for n, a, is_number in zip(names, arrays, numeric)
+    )
+    values = tuple(a.astype(np.float64).ravel() for a, ok in zip(arrays, numeric) if ok)
+    return structure, values
+
+
+def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple | None, str | None]:
+    """A run's gait or policy as values: `(structure, values, digest)` (see `Fingerprint`).
+
+    Args:
+      run_dir: The run folder.
+      files: Its gait or policy files (`admission.artifact_files`).
+
+    Raises:
+      OSError, ValueError, KeyError: On a file that cannot be read as its kind.
+      SyntaxError: On a policy file that is not Python.
+    """
+    path = os.path.join(run_dir, files[0])
+    name = files[0]
+    if name.endswith(".json"):
+        return (*_arrays({"params": feedback.load_params(path)}), None)
+    if name.endswith(".npz"):
+        with np.load(path, allow_pickle=False) as data:
+            return (*_arrays({k: data[k] for k in data.files}), None)
+    if name.endswith(".npy"):
+        return (*_arrays({"actions": np.load(path, allow_pickle=False)}), None)
+    if name.endswith(".py"):
+        with open(path, encoding="utf-8") as f:
+            tree = ast.dump(ast.parse(f.read()), annotate_fields=False)
+        return ("python",), None, _sha256(tree.encode())
+    parts = []
+    for file_name in files:  # an SB3 model (zip) and its normalizer (pickle)
+        file_path = os.path.join(run_dir, file_name)
+        if zipfile.is_zipfile(file_path):
+            with zipfile.ZipFile(file_path) as z:
+                for member in sorted(z.namelist()):
+                    parts += [member.encode(), z.read(member)]
+        else:
+            with open(file_path, "rb") as f:
+                parts.append(f.read())
+    return ("bytes",), None, _sha256(*parts)
+
+
+def fingerprint(run_dir: str, files: tuple[str, ...], trials: list[dict]) -> Fingerprint:
+    """A run's fingerprint: its trial outcomes and its gait or policy as values.
+
+    Args:
+      run_dir: The run folder.
+      files: Its gait or policy files (`admission.artifact_files`).
+      trials: Its card's trial table (`admission.read_trials`).
+    """
+    outcomes = tuple((t["tier"], t["seed"], t["fell"], t["fall_step"], t["cause"]) for t in trials)
+    distances = np.array([t["distance_m"] for t in trials], dtype=np.float64)
+    structure, values, digest = artifact_values(run_dir, files)
+    return Fingerprint(outcomes, distances, files[0], structure, values, digest)
+
+
+def same_trials(a: Fingerprint, b: Fingerprint) -> bool:
+    """Whether two runs' trial outcomes are equal (distances within `TRIAL_TOLERANCE_M`)."""
+    return a.outcomes == b.outcomes and bool(
+        np.all(np.abs(a.distances - b.distances) <= TRIAL_TOLERANCE_M)
+    )
+
+
+def same_artifact(a: Fingerprint, b: Fingerprint) -> bool:
+    """Whether two runs' gaits or policies are equal as values (within `VALUE_RTOL`)."""
+    if (a.kind, a.structure, a.digest) != (b.kind, b.structure, b.digest):
+        return False
+    if a.values is None:
+        return True
+    return all(
+        np.allclose(x, y, rtol=VALUE_RTOL, atol=VALUE_ATOL, equal_nan=True)
+        for x, y in zip(a.values, b.values)
+    )
+
+
+def copy_of(later: Fingerprint, earlier: Fingerprint) -> str | None:
+    """What makes `later` a copy of `earlier` ("trial outcomes", "gait or policy"), or None."""
+    if same_trials(later, earlier):
+        return "trial outcomes"
+    if same_artifact(later, earlier):
+        return "gait or policy"
+    return None
+
+
+def started(run_dir: str) -> str:
+    """When a run says it started (its config's `environment.started_utc`; "" if it does
+    not say): the older of two copies is the original (ties: path order)."""
+    try:
+        with open(os.path.join(run_dir, "config.json"), encoding="utf-8") as f:
+            value = json.load(f)["environment"]["started_utc"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return "~"  # after every date: a run that does not say comes last
+    return value if isinstance(value, str) else "~"
+
+
+def closest_pairs(prints: dict[str, Fingerprint]) -> tuple[float, float]:
+    """The smallest trial-table and gait-or-policy distance between two runs of `prints`
+    (max absolute distance difference over trials with equal outcomes, m; max relative
+    value difference over artifacts of one structure): how far the tolerances lie from
+    honest runs.
+
+    Returns:
+      `(trials_m, values_rel)`; inf where no two runs are comparable.
+    """
+    items = list(prints.values())
+    trials_m, values_rel = np.inf, np.inf
+    for i, a in enumerate(items):
+        for b in items[i + 1 :]:
+            if a.outcomes == b.outcomes:
+                trials_m = min(trials_m, float(np.max(np.abs(a.distances - b.distances))))
+            if a.values is not None and (a.kind, a.structure) == (b.kind, b.structure):
+                rel = max(
+                    float(np.max(np.abs(x - y) / np.maximum(np.abs(y), 1e-300)))
+                    for x, y in zip(a.values, b.values)
+                    if x.size
+                )
+                values_rel = min(values_rel, rel)
+    return trials_m, values_rel

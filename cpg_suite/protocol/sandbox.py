@@ -1,0 +1,317 @@
+"""A policy that is code runs in a process of its own and sees its observations only.
+
+`verify --trust_code` and `submit --code` run a run's `policy_code.py`; in the scorer's own
+process, that code could walk its caller's frames to the physics, the tier and the seed.
+`IsolatedPolicy` runs it elsewhere:
+
+* a child Python process (the same interpreter and `cpg_suite`, an empty temporary working
+  folder, no file descriptors but its two pipes and stderr, an environment holding only
+  what fixes its arithmetic) executes the file and calls `make_policy()` once;
+* for each trial (`reset()`, or `reset_batch(n)` for a batch of trials) it forks a trial
+  process from that state, which answers the trial's observations with actions and ends
+  with it: nothing a trial did is seen by the next;
+* the scorer sends each observation as arrays of bytes and reads the action back as
+  float64 values (`_send`, `_receive`); nothing else crosses, and the trials (and tiers)
+  run in an order drawn afresh at each scoring (`trial_order`), so that a policy counting
+  its trials (through a file, or memory shared before the fork) learns nothing of which
+  one it is in.
+
+A policy that computes in its own process sees only the observations; its actions come
+back as the same float64 values, so an honest policy's card is the same, bit for bit
+(`tests/test_sandbox.py`).
+
+The boundary holds against Python: frames, globals, the objects of the scorer's process,
+counters. The policy may read files (no seed or state of a trial is written to one). It
+is not an operating-system sandbox: the kernel keeps an unprivileged user's process from
+reading its parent's memory (ptrace rules), but a process running as root may; run
+`verify` as an unprivileged user, or in a container, where that matters
+(docs/protocol.md#data-and-code).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import os
+import struct
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable
+
+import numpy as np
+
+_BEGIN, _BATCH, _ACT, _END, _OK, _FAIL = b"B", b"N", b"A", b"E", b"K", b"F"
+_HEADER = struct.Struct("<cI")  # kind, payload length
+# What the child inherits of the environment: what decides its arithmetic and threads.
+_ENVIRONMENT = (
+    "PATH",
+    "NPY_DISABLE_CPU_FEATURES",
+    "OPENBLAS_CORETYPE",
+    "OPENBLAS_L2_SIZE",
+    "ATEN_CPU_CAPABILITY",
+    "MKL_CBWR",
+)
+_THREADS = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+_BOOT = (
+    "import sys; sys.path.insert(0, {root!r}); "
+    "from cpg_suite.protocol import sandbox; sandbox.serve({path!r})"
+)
+
+
+class PolicyFailed(RuntimeError):
+    """The policy's process ended or answered with something other than an action."""
+
+
+def _read_exactly(fd: int, n: int) -> bytes:
+    chunks, left = [], n
+    while left:
+        chunk = os.read(fd, left)
+        if not chunk:
+            raise EOFError("the other end closed")
+        chunks.append(chunk)
+        left -= len(chunk)
+    return b"".join(chunks)
+
+
+def _send(fd: int, kind: bytes, payload: bytes = b"") -> None:
+    data = _HEADER.pack(kind, len(payload)) + payload
+    while data:
+        data = data[os.write(fd, data) :]
+
+
+def _receive(fd: int) -> tuple[bytes, bytes]:
+    kind, length = _HEADER.unpack(_read_exactly(fd, _HEADER.size))
+    return kind, _read_exactly(fd, length)
+
+
+_HEADERS: dict = {}  # the JSON header of each layout of arrays sent (a cache)
+_LAYOUTS: dict = {}  # the layout of each header received (a cache)
+
+
+def encode_arrays(arrays: dict) -> bytes:
+    """Named arrays as bytes: a JSON header (names, dtypes, shapes), then their data."""
+    values = {k: np.ascontiguousarray(v) for k, v in arrays.items()}
+    layout = tuple((k, v.dtype.str, v.shape) for k, v in values.items())
+    header = _HEADERS.get(layout)
+    if header is None:
+        header = json.dumps([[k, d, list(shape)] for k, d, shape in layout]).encode()
+        header = _HEADERS.setdefault(layout, struct.pack("<I", len(header)) + header)
+    return header + b"".join(v.tobytes() for v in values.values())
+
+
+def decode_arrays(payload: bytes) -> dict:
+    """The named arrays of `encode_arrays`, as writable copies in their order.
+
+    Raises:
+      ValueError: On arrays of Python objects (nothing is unpickled).
+    """
+    (size,) = struct.unpack_from("<I", payload)
+    header = payload[: 4 + size]
+    layout = _LAYOUTS.get(header)
+    if layout is None:
+        layout = []
+        for name, dtype, shape in json.loads(header[4:]):
+            dtype = np.dtype(dtype)
+            if dtype.hasobject:
+                raise ValueError("arrays of Python objects do not cross")
+            layout.append((name, dtype, tuple(shape), int(np.prod(shape, dtype=np.int64))))
+        layout = _LAYOUTS.setdefault(header, layout)
+    offset, arrays = 4 + size, {}
+    for name, dtype, shape, count in layout:
+        arrays[name] = np.frombuffer(payload, dtype, count, offset).reshape(shape).copy()
+        offset += count * dtype.itemsize
+    return arrays
+
+
+class IsolatedPolicy:
+    """A `policy_code.py` run in its own process (see the module's docstring).
+
+    Called with an observation (a mapping of arrays) it returns the action as float64
+    values; `reset()` starts a trial. If the code's policy has `reset_batch(n)` and
+    `act_batch(observations)`, so does this (`score.batched_policy_trials`).
+
+    Args:
+      path: The policy's Python file.
+
+    Raises:
+      PolicyFailed: If the file cannot be run or its `make_policy()` fails (with the
+        last line the child printed on stderr).
+    """
+
+    def __init__(self, path: str):
+        self._folder = tempfile.TemporaryDirectory(prefix="policy-")
+        self._stderr = tempfile.TemporaryFile()
+        environment = {k: os.environ[k] for k in _ENVIRONMENT if k in os.environ}
+        self._process = subprocess.Popen(
+            [sys.executable, "-E", "-s", "-c", _BOOT.format(root=_ROOT, path=path)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=self._stderr,
+            cwd=self._folder.name,
+            env={**environment, **_THREADS},
+        )
+        self._to, self._from = self._process.stdin.fileno(), self._process.stdout.fileno()
+        self._in_trial = False
+        kind, payload = self._answer()
+        self.batched = payload == b"batch"
+        if self.batched:
+            self.reset_batch, self.act_batch = self._reset_batch, self._act_batch
+
+    def _answer(self) -> tuple[bytes, bytes]:
+        try:
+            kind, payload = _receive(self._from)
+        except (EOFError, OSError):
+            kind, payload = _FAIL, b""
+        if kind != _OK:
+            self.close()
+            self._stderr.seek(0)
+            lines = self._stderr.read().decode(errors="replace").strip().splitlines()
+            said = payload.decode(errors="replace") or (lines[-1] if lines else "no answer")
+            raise PolicyFailed(f"the policy's process failed: {said}")
+        return kind, payload
+
+    def _begin(self, kind: bytes, payload: bytes = b"") -> None:
+        if self._in_trial:
+            _send(self._to, _END)
+            self._answer()
+        _send(self._to, kind, payload)
+        self._answer()
+        self._in_trial = True
+
+    def reset(self) -> None:
+        """Starts a trial: a fresh trial process from the policy as `make_policy()` made it."""
+        self._begin(_BEGIN)
+
+    def __call__(self, observation) -> np.ndarray:
+        if not self._in_trial:
+            self.reset()
+        _send(self._to, _ACT, encode_arrays(dict(observation)))
+        return self._action(1)[0]
+
+    def _reset_batch(self, rows: int) -> None:
+        self._begin(_BATCH, struct.pack("<I", rows))
+
+    def _act_batch(self, observations: dict) -> np.ndarray:
+        _send(self._to, _ACT, encode_arrays(dict(observations)))
+        return self._action(None)
+
+    def _action(self, rows: int | None) -> np.ndarray:
+        _, payload = self._answer()
+        action = decode_arrays(payload)["action"]
+        if action.dtype != np.float64 or action.ndim != 2 or (rows and action.shape[0] != rows):
+            raise PolicyFailed(f"the policy answered a {action.dtype} {action.shape} array")
+        return action
+
+    def trial_order(self, n: int) -> np.ndarray:
+        """The order the scorer runs n trials (or tiers) in: drawn afresh each time."""
+        return np.random.default_rng().permutation(n)
+
+    def close(self) -> None:
+        """Ends the policy's process."""
+        if self._process.poll() is None:
+            self._process.kill()
+        self._process.wait()
+        for stream in (self._process.stdin, self._process.stdout):
+            stream.close()
+        self._folder.cleanup()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
+def _act(policy, observations: dict, batched: bool) -> np.ndarray:
+    if batched:
+        action = policy.act_batch(observations)
+    else:
+        action = policy(observations)
+    return np.atleast_2d(np.asarray(action, dtype=np.float64))
+
+
+def _trial(policy, kind: bytes, payload: bytes) -> None:
+    """A trial process: resets the policy, then answers observations until the trial ends."""
+    batched = kind == _BATCH
+    try:
+        if batched:
+            policy.reset_batch(struct.unpack("<I", payload)[0])
+        elif hasattr(policy, "reset"):
+            policy.reset()
+        _send(1, _OK)
+        while True:
+            kind, payload = _receive(0)
+            if kind != _ACT:
+                _send(1, _OK)
+                break
+            action = _act(policy, decode_arrays(payload), batched)
+            _send(1, _OK, encode_arrays({"action": action}))
+    except BaseException as e:
+        _send(1, _FAIL, f"{type(e).__name__}: {e}".encode()[:4000])
+    finally:
+        os._exit(0)
+
+
+def load_policy_code(path: str) -> Callable[[dict], np.ndarray]:
+    """Executes a policy's Python file and returns its `make_policy()`: code runs here.
+
+    The file is executed as a module of its own (importable by name only while it runs);
+    it may import what is installed (NumPy, `cpg_suite`). `serve` calls it in the policy's
+    own process; nothing in the scorer's process calls it.
+
+    Args:
+      path: The file (`policy_code.py`).
+
+    Returns:
+      The policy: a callable from the task's observation to a (12,) action, with `reset()`
+      called before each trial if it has one.
+
+    Raises:
+      ValueError: If the file defines no `make_policy()` or it returns no callable.
+      Exception: Whatever the file raises.
+    """
+    with open(path, "rb") as f:
+        name = f"_policy_code_{hashlib.sha256(f.read()).hexdigest()[:16]}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ValueError(f"{path} cannot be loaded as Python")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # while it runs: what dataclasses and pickle look up
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.modules.pop(name, None)
+    make = getattr(module, "make_policy", None)
+    if not callable(make):
+        raise ValueError(f"{path} defines no make_policy()")
+    policy = make()
+    if not callable(policy):
+        raise ValueError(f"{path}: make_policy() returned {type(policy).__name__}, not a policy")
+    return policy
+
+
+def serve(path: str) -> None:
+    """The policy's process (`IsolatedPolicy`): runs the file, then forks one trial process
+    per trial and waits for it."""
+    try:
+        policy = load_policy_code(path)
+    except BaseException as e:
+        _send(1, _FAIL, f"{type(e).__name__}: {e}".encode()[:4000])
+        return
+    batched = hasattr(policy, "reset_batch") and hasattr(policy, "act_batch")
+    _send(1, _OK, b"batch" if batched else b"")
+    while True:
+        try:
+            kind, payload = _receive(0)
+        except EOFError:
+            return
+        if kind not in (_BEGIN, _BATCH):
+            _send(1, _FAIL, b"no trial started")
+            continue
+        pid = os.fork()
+        if pid == 0:
+            _trial(policy, kind, payload)
+        os.waitpid(pid, 0)

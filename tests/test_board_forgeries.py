@@ -1,0 +1,305 @@
+"""Gaming the board as a newcomer would (issue 51): copies with new bytes, card and trials
+edited together, a planted trust list, half-written folders. Each is refused by the board
+or caught by what CI runs (`verify --sample`), with the reason in one line."""
+
+import csv
+import json
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+
+from analysis import leaderboard
+from cpg_suite.protocol import admission, copies, sample, verify
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RUNS = os.path.join(ROOT, "results", "protocol", "runs")
+GAIT_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed0")
+OTHER_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed1")
+EXPORTED_RUN = os.path.join(RUNS, "ppo_mjx", "darwin_walk", "cpg_seed0")
+
+
+def _copy(runs, name, source=GAIT_RUN, method="cem", task="darwin_walk"):
+    dest = runs / method / task / name
+    shutil.copytree(source, dest)
+    return dest
+
+
+def _rows(run):
+    with open(run / "trials.csv", newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+def _write_rows(run, rows):
+    with open(run / "trials.csv", "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def _new_bytes_same_values(run):
+    """A run rewritten in other bytes, the same values: trailing zeros in the trial table,
+    the gait's JSON re-indented with its keys reversed, the config's seed changed."""
+    rows = _rows(run)
+    for r in rows:
+        r["distance_m"] = r["distance_m"] + "0"
+    _write_rows(run, rows)
+    params = json.loads((run / "selected_params.json").read_text())
+    amplitudes = dict(reversed(list(params["amplitudes"].items())))
+    (run / "selected_params.json").write_text(json.dumps({"amplitudes": amplitudes}, indent=4))
+
+
+def _seed(run, seed):
+    config = json.loads((run / "config.json").read_text())
+    config["settings"]["seed"] = seed
+    (run / "config.json").write_text(json.dumps(config))
+
+
+def _edit_consistently(run, change):
+    """Trials edited by `change(row)` and the card rebuilt from them with the board's own
+    arithmetic (`admission._card_row`): a run the board's file checks cannot tell."""
+    rows = _rows(run)
+    for r in rows:
+        change(r)
+    _write_rows(run, rows)
+    summary = json.loads((run / "summary.json").read_text())
+    trials = admission.read_trials(str(run / "trials.csv"))
+    tiers = list(summary["test"]["tiers"])
+    steps = 1000
+    for tier in tiers:
+        made = admission._jsonable(
+            admission._card_row([t for t in trials if t["tier"] == tier], steps)
+        )
+        summary["test"]["tiers"][tier].update(made)
+    summary["test"]["all"].update(admission._jsonable(admission._card_row(trials, steps)))
+    (run / "summary.json").write_text(json.dumps(summary, indent=2))
+
+
+def _refused(runs):
+    return {
+        os.path.relpath(d, runs): r for d, r in admission.refusals(verify.run_folders(runs)).items()
+    }
+
+
+def test_copies_with_new_bytes_are_one_run_in_a_configuration_and_across_methods(tmp_path):
+    runs = tmp_path / "runs"
+    _copy(runs, "K50_seed0")
+    for seed, method in ((1, "cem"), (2, "cem"), (0, "my_method")):
+        copy = _copy(runs, f"K50_seed{seed}", method=method)
+        _new_bytes_same_values(copy)
+        _seed(copy, seed)
+    _seed(_copy(runs, "K50_seed3", source=OTHER_RUN), 3)  # another run: admitted
+    refused = _refused(runs)
+    assert set(refused) == {
+        "cem/darwin_walk/K50_seed1",
+        "cem/darwin_walk/K50_seed2",
+        "my_method/darwin_walk/K50_seed0",
+    }
+    for reason in refused.values():
+        assert reason == (
+            "a copy of cem/darwin_walk/K50_seed0: the same trial outcomes as values "
+            "(one run, not another)"
+        )
+
+
+def test_a_gait_nudged_in_its_last_digits_is_the_same_gait(tmp_path):
+    """Another run's trials under a copied gait moved by 1e-9: the same gait as values."""
+    runs = tmp_path / "runs"
+    _copy(runs, "K50_seed0")
+    nudged = _copy(runs, "K50_seed1", source=OTHER_RUN)  # another run's card and trials
+    original = json.loads((runs / "cem/darwin_walk/K50_seed0/selected_params.json").read_text())
+    params = {"amplitudes": {k: v * (1 + 1e-9) for k, v in original["amplitudes"].items()}}
+    (nudged / "selected_params.json").write_text(json.dumps(params))
+    config = json.loads((nudged / "config.json").read_text())
+    config["environment"]["started_utc"] = "2026-11-27T00:00:00Z"  # after the original
+    (nudged / "config.json").write_text(json.dumps(config))
+    assert _refused(runs) == {
+        "cem/darwin_walk/K50_seed1": (
+            "a copy of cem/darwin_walk/K50_seed0: the same gait or policy as values "
+            "(one run, not another)"
+        )
+    }
+
+
+def test_an_exported_policy_resaved_and_a_commented_code_file_are_copies(tmp_path):
+    runs = tmp_path / "runs"
+    _copy(runs, "cpg_seed0", source=EXPORTED_RUN, method="ppo_mjx")
+    resaved = _copy(runs, "cpg_seed1", source=EXPORTED_RUN, method="other")
+    with np.load(resaved / "selected_policy.npz") as data:
+        arrays = {k: data[k] for k in data.files}
+    np.savez_compressed(resaved / "selected_policy.npz", **dict(reversed(list(arrays.items()))))
+    _edit_consistently(resaved, lambda r: None)  # trials as they were: caught on trials too
+    a = copies.artifact_values(
+        str(runs / "ppo_mjx/darwin_walk/cpg_seed0"), ("selected_policy.npz",)
+    )
+    b = copies.artifact_values(str(resaved), ("selected_policy.npz",))
+    assert a[0] == b[0] and all(np.array_equal(x, y) for x, y in zip(a[1], b[1]))
+    code = "import numpy as np\n\ndef make_policy():\n    return lambda o: np.zeros(12)\n"
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    (tmp_path / "a" / "policy_code.py").write_text(code)
+    (tmp_path / "b" / "policy_code.py").write_text("# mine\n" + code.replace("    ", "  "))
+    assert copies.artifact_values(str(tmp_path / "a"), ("policy_code.py",)) == (
+        copies.artifact_values(str(tmp_path / "b"), ("policy_code.py",))
+    )
+    assert "cpg_seed1" in " ".join(_refused(runs))
+
+
+def test_the_shipped_runs_lie_far_outside_the_copy_tolerances():
+    for version in (1, 2):
+        prints = {
+            d: copies.fingerprint(
+                d, admission.artifact_files(d), admission.read_trials(os.path.join(d, "trials.csv"))
+            )
+            for d in verify.run_folders(RUNS)
+            if admission.trained_version(d) == version
+        }
+        trials_m, values_rel = copies.closest_pairs(prints)
+        assert trials_m >= 1000 * copies.TRIAL_TOLERANCE_M
+        assert values_rel >= 1000 * copies.VALUE_RTOL
+
+
+def test_a_trial_beyond_what_a_trial_may_claim_is_refused(tmp_path):
+    runs = tmp_path / "runs"
+    run = _copy(runs, "K50_seed0")
+    _edit_consistently(run, lambda r: r.update(distance_m="40.0") if r["seed"] == "2000003" else 0)
+    (reason,) = _refused(runs).values()
+    assert reason.startswith("its trial table's darwin_walk seed 2000003 walks 40.0 m, beyond")
+
+
+def test_detection_probability_is_the_hypergeometric_miss_chance():
+    rng = np.random.default_rng(0)
+    edited = set(range(7))
+    draws = [set(rng.choice(200, 20, replace=False)) for _ in range(20000)]
+    caught = np.mean([bool(d & edited) for d in draws])
+    assert abs(caught - sample.detection_probability(7, 20, 200)) < 0.015
+    assert sample.trials_to_move(1.0) == 7  # 1 m on a 200-trial card at ≤ 32 m a trial
+    assert sample.caught_by_delta(1.0) == sample.detection_probability(7)
+    assert sample.detection_probability(0) == 0.0 and sample.detection_probability(181) == 1.0
+
+
+def _draw_hitting(run, wanted: bool, edited: set) -> int:
+    """An entropy whose draw of `sample.DEFAULT_TRIALS` trials includes an edited trial
+    (`wanted`) or none: a replay of a check that did, or did not, catch the forgery."""
+    keys = [(t["tier"], t["seed"]) for t in admission.read_trials(str(run / "trials.csv"))]
+    name = "/".join(str(run).split(os.sep)[-3:])
+    for entropy in range(1000):
+        chosen = sample.draw(keys, sample.DEFAULT_TRIALS, entropy, name)
+        hit = any((tier, seed) in edited for tier, seeds in chosen.items() for seed in seeds)
+        if hit == wanted:
+            return entropy
+    raise AssertionError("no such draw")
+
+
+def test_a_consistent_edit_of_many_trials_passes_the_board_and_fails_any_sample(tmp_path):
+    runs = tmp_path / "runs"
+    run = _copy(runs, "K50_seed0")
+
+    def add(r):
+        if r["fell"] == "False":
+            r["distance_m"] = repr(float(r["distance_m"]) + 0.5)
+
+    _edit_consistently(run, add)
+    assert _refused(runs) == {}  # the board reads files: it cannot tell
+    logged = []
+    failed = verify.verify(str(runs), log=logged.append, sample_trials=4, entropy=12345)
+    assert failed == 1 and logged[1].startswith("DIFF") and "differs from trials.csv" in logged[1]
+    assert logged[0] == "sample: 4 trials a run, drawn with --entropy=12345"
+
+
+def test_a_consistent_edit_of_one_trial_is_caught_when_the_draw_includes_it(tmp_path):
+    runs = tmp_path / "runs"
+    run = _copy(runs, "K50_seed0")
+    edited = {("darwin_walk_push", 2000041)}
+    _edit_consistently(
+        run,
+        lambda r: r.update(distance_m="6.0") if (r["tier"], int(r["seed"])) in edited else 0,
+    )
+    hit, miss = _draw_hitting(run, True, edited), _draw_hitting(run, False, edited)
+    assert verify.verify(str(runs), log=lambda _: None, sample_trials=20, entropy=hit) == 1
+    assert verify.verify(str(runs), log=lambda _: None, sample_trials=20, entropy=miss) == 0
+
+
+class _Payload:
+    """Unpickled, it writes a marker file: the proof that a pickle was loaded."""
+
+    def __init__(self, path):
+        self.path = str(path)
+
+    def __reduce__(self):
+        return (open, (self.path, "w"))
+
+
+def test_a_trust_list_planted_in_the_working_directory_is_not_read(tmp_path):
+    runs = tmp_path / "runs"
+    run = _copy(runs, "cpg_seed0", source=os.path.join(RUNS, "ppo", "darwin_walk", "cpg_seed0"))
+    marker = tmp_path / "unpickled"
+    (run / "selected_vecnormalize.pkl").write_bytes(pickle.dumps(_Payload(marker)))
+    planted = tmp_path / "results" / "protocol"
+    planted.mkdir(parents=True)
+    lines = "".join(
+        f"{verify.file_digest(str(run / name))}  x/{name}\n"
+        for name in ("selected_model.zip", "selected_vecnormalize.pkl")
+    )
+    (planted / "trusted_artifacts.txt").write_text(lines)
+    (tmp_path / "trusted_pickles.txt").write_text(lines)
+    command = [sys.executable, "-m", "cpg_suite.protocol.verify", f"--artifacts={runs}"]
+    out = subprocess.run(
+        [*command, "--sample=1"], capture_output=True, text=True, cwd=tmp_path, timeout=300
+    )
+    assert out.returncode == 1
+    assert "selected_vecnormalize.pkl (pickles: loading runs code) is not in" in out.stdout
+    assert not marker.exists()
+    # A list named on the command line (`--trusted_list`) is the user's own decision.
+    listed = verify.trusted_digests(str(tmp_path / "trusted_pickles.txt"))
+    assert verify.code_refusal(str(run), trusted=listed) is None
+
+
+def test_the_board_lists_a_half_written_submission_and_a_run_missing_its_card(tmp_path):
+    runs = tmp_path / "runs"
+    _copy(runs, "K50_seed0")
+    partial = runs / "cem" / "darwin_walk" / ".K50_seed1.partial-0a1b2c3d"
+    partial.mkdir()
+    (partial / "selected_params.json").write_text("{}")
+    unfinished = _copy(runs, "K50_seed2", source=OTHER_RUN)
+    _seed(unfinished, 2)
+    (unfinished / "summary.json").unlink()
+    leaderboard.write_tables(str(runs), str(tmp_path / "board" / "leaderboard.csv"))
+    with open(tmp_path / "board" / "darwin_not_admitted.csv", newline="", encoding="utf-8") as f:
+        refused = {r["run"]: r["reason"] for r in csv.DictReader(f)}
+    assert refused == {
+        "cem/darwin_walk/.K50_seed1.partial-0a1b2c3d": (
+            "a submission's half-written folder: its process ended before the run was "
+            "complete (delete it and submit again)"
+        ),
+        "cem/darwin_walk/K50_seed2": "missing summary.json",
+    }
+
+
+def test_maintenance_changes_nothing_when_one_run_may_not_be_changed(tmp_path):
+    runs = tmp_path / "runs"
+    first = _copy(runs, "K50_seed0")
+    code = _copy(runs, "K50_seed1", source=OTHER_RUN)
+    (code / "selected_params.json").unlink()
+    (code / "policy_code.py").write_text("def make_policy():\n    return None\n")
+    before = (first / "summary.json").read_bytes()
+    command = [sys.executable, "-m", "cpg_suite.protocol.verify", f"--artifacts={runs}"]
+    out = subprocess.run([*command, "--update_cards"], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 2
+    assert out.stderr.strip().splitlines() == [
+        f"error: nothing changed: {code}: its policy_code.py runs code: re-run with "
+        "--trust_code to execute it"
+    ]
+    assert (first / "summary.json").read_bytes() == before
+
+
+def test_run_files_take_the_users_umask(tmp_path):
+    script = (
+        "import os, sys; os.umask(0o027); from cpg_suite.harness import runs; "
+        "runs.write_json(sys.argv[1], {'a': 1})"
+    )
+    subprocess.run([sys.executable, "-c", script, str(tmp_path / "x.json")], check=True)
+    assert (tmp_path / "x.json").stat().st_mode & 0o777 == 0o640

@@ -1,0 +1,218 @@
+"""A policy that is code sees its observations and nothing else (issue 51): in its own
+process it finds no frames, objects, globals or files that tell the trial; an honest one
+keeps its trials bit for bit; counting trials tells it nothing."""
+
+import os
+import textwrap
+
+import numpy as np
+import pytest
+
+from cpg_suite import cpg
+from cpg_suite.protocol import sandbox, score
+
+HONEST = """
+import numpy as np
+
+from cpg_suite import cpg
+from cpg_suite.protocol import score
+
+
+def make_policy():
+    return score.OpenLoopPolicy(np.array(cpg.PRESETS["hand_tuned"]))
+"""
+
+# What a newcomer tries: find the scorer's physics, tier or seed from inside the policy —
+# its caller's frames, the process's objects, the scorer's module globals, the files and
+# the parent process. If it finds any, it pushes the torso forward (the cheat that moved a
+# run from 2.90 to 4.79 m) and walks with a stronger gait; else it walks the honest gait.
+SNOOP = """
+import gc
+import inspect
+import os
+import sys
+
+import numpy as np
+
+from cpg_suite import cpg
+from cpg_suite.protocol import score
+
+FOUND = []
+
+
+def _look():
+    found = []
+    frame = inspect.currentframe()
+    while frame is not None:  # the caller's frames
+        for name in ("physics", "env", "trial", "tier", "seed", "task"):
+            if name in frame.f_locals:
+                found.append(("frame", name))
+        frame = frame.f_back
+    for obj in gc.get_objects():  # any object of the process
+        kind = type(obj).__name__
+        if kind in ("Physics", "Environment", "_Trial"):
+            found.append(("object", kind))
+    module = sys.modules.get("cpg_suite.protocol.score")  # the scorer's globals
+    for name in dir(module):
+        if name.startswith("_current") or name in ("TRIAL", "SEED"):
+            found.append(("global", name))
+    for path in (f"/proc/{os.getppid()}/cmdline", f"/proc/{os.getppid()}/environ"):
+        try:
+            with open(path, "rb") as f:
+                if b"2000" in f.read():  # a test seed, as the scorer would know it
+                    found.append(("file", path))
+        except OSError:
+            pass
+    for name in os.listdir("."):  # the working folder
+        found.append(("cwd", name))
+    return found
+
+
+class Snoop:
+    def __init__(self):
+        self.honest = score.OpenLoopPolicy(np.array(cpg.PRESETS["hand_tuned"]))
+
+    def reset(self):
+        self.honest.reset()
+        self.looked = False
+
+    def __call__(self, observation):
+        action = self.honest(observation)
+        found = FOUND if getattr(self, "looked", False) else _look()
+        self.looked = True
+        if found:
+            if found is not FOUND:
+                FOUND.extend(found)
+            physics = [o for o in gc.get_objects() if type(o).__name__ == "Physics"]
+            for p in physics:
+                p.data.qpos[0] += 0.003
+            return np.clip(action * 1.5, -1, 1)
+        return action
+
+
+def make_policy():
+    return Snoop()
+"""
+
+SETTINGS = score.ScoreSettings(steps=60)
+CHOSEN = {"darwin_walk": [2000000, 2000007], "darwin_walk_push": [2000001]}
+
+
+def _write(tmp_path, name, code):
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(code))
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def honest_trials():
+    return score.seed_trials(
+        score.OpenLoopPolicy(np.array(cpg.PRESETS["hand_tuned"])), SETTINGS, CHOSEN
+    )
+
+
+def test_an_honest_policy_keeps_its_trials_bit_for_bit(tmp_path, honest_trials):
+    policy = sandbox.IsolatedPolicy(_write(tmp_path, "honest.py", HONEST))
+    try:
+        assert score.seed_trials(policy, SETTINGS, CHOSEN) == honest_trials
+    finally:
+        policy.close()
+
+
+def test_a_batched_policy_keeps_its_trials_across_the_boundary(tmp_path):
+    code = """
+    import numpy as np
+
+    from cpg_suite import cpg
+    from cpg_suite.harness import exported
+
+
+    def make_policy():
+        return exported.ActionTable.from_gait(np.array(cpg.PRESETS["hand_tuned"]))
+    """
+    from cpg_suite.harness import exported
+
+    table = exported.ActionTable.from_gait(np.array(cpg.PRESETS["hand_tuned"]))
+    policy = sandbox.IsolatedPolicy(_write(tmp_path, "batched.py", code))
+    try:
+        assert policy.batched
+        assert score.seed_trials(policy, SETTINGS, CHOSEN) == score.seed_trials(
+            table, SETTINGS, CHOSEN
+        )
+    finally:
+        policy.close()
+
+
+def test_a_policy_that_snoops_finds_nothing_and_scores_as_the_honest_one(tmp_path, honest_trials):
+    path = _write(tmp_path, "snoop.py", SNOOP)
+    policy = sandbox.IsolatedPolicy(path)
+    try:
+        assert score.seed_trials(policy, SETTINGS, CHOSEN) == honest_trials
+    finally:
+        policy.close()
+    # The same code in the scorer's own process finds the trial and cheats: the test above
+    # can fail.
+    cheat = sandbox.load_policy_code(path)
+    assert score.seed_trials(cheat, SETTINGS, CHOSEN) != honest_trials
+    found = set(cheat.__call__.__globals__["FOUND"])
+    assert {("frame", "seed"), ("frame", "tier"), ("object", "Physics")} <= found
+
+
+def test_trials_run_in_an_order_drawn_afresh(tmp_path):
+    policy = sandbox.IsolatedPolicy(_write(tmp_path, "honest.py", HONEST))
+    try:
+        orders = {tuple(policy.trial_order(50)) for _ in range(5)}
+    finally:
+        policy.close()
+    assert len(orders) == 5 and all(sorted(o) == list(range(50)) for o in orders)
+
+
+def test_state_does_not_cross_from_one_trial_to_the_next(tmp_path):
+    code = """
+    import numpy as np
+
+
+    class Counter:
+        def __init__(self):
+            self.calls = 0
+
+        def __call__(self, observation):
+            self.calls += 1
+            return np.full(12, self.calls / 1000.0)
+
+
+    def make_policy():
+        return Counter()
+    """
+    policy = sandbox.IsolatedPolicy(_write(tmp_path, "counter.py", code))
+    observation = {"x": np.zeros(3)}
+    try:
+        policy.reset()
+        first = [policy(observation)[0] for _ in range(3)]
+        policy.reset()  # a fresh trial process: the count starts again
+        second = [policy(observation)[0] for _ in range(3)]
+    finally:
+        policy.close()
+    assert first == second == [0.001, 0.002, 0.003]
+
+
+def test_a_policy_that_fails_says_why_in_one_line(tmp_path):
+    with pytest.raises(sandbox.PolicyFailed, match="defines no make_policy"):
+        sandbox.IsolatedPolicy(_write(tmp_path, "empty.py", "x = 1\n"))
+    bad = "def make_policy():\n    return lambda o: 'not an action'\n"
+    policy = sandbox.IsolatedPolicy(_write(tmp_path, "bad.py", bad))
+    try:
+        with pytest.raises(sandbox.PolicyFailed, match="ValueError"):
+            policy({"x": np.zeros(2)})
+    finally:
+        policy.close()
+
+
+def test_arrays_cross_as_the_same_bits():
+    arrays = {"a": np.random.default_rng(0).normal(size=(3, 4)), "b": np.arange(5)}
+    back = sandbox.decode_arrays(sandbox.encode_arrays(arrays))
+    assert list(back) == ["a", "b"]
+    assert all(np.array_equal(back[k], v) and back[k].dtype == v.dtype for k, v in arrays.items())
+    with pytest.raises(ValueError, match="Python objects"):
+        sandbox.decode_arrays(sandbox.encode_arrays({"o": np.array([object()])}))
+    assert not os.environ.get("_never_set_by_the_sandbox")
