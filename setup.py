@@ -51,7 +51,7 @@ setup(
         include=["cpg_suite", "cpg_suite.*", "baselines", "baselines.*", "analysis", "analysis.*"]
     ),
     package_data={
-        "cpg_suite": ["xml/*.xml", "xml/common/*.xml", "data/*.json", "data/*.md"],
+        "cpg_suite": ["xml/*.xml", "xml/common/*.xml", "data/*.json", "data/*.md", "data/*.txt"],
         "analysis": ["*.csv"],
     },
     # Ranges we have tested. dm-control 1.0.50 breaks with mujoco 4.x (flex_vertedge).
