@@ -21,7 +21,7 @@ TRAINING = {"darwin_walk": "nominal", "darwin_walk_randomized": "randomized"}
 HEADER = (
     "| track | rank | method (training tier) | seeds | IQM [95 % CI] | mean [95 % CI] | m/s "
     "| failures (brown-outs) | A, worst 1 s | nominal | randomized | push | rough "
-    "| P(improvement over next) [95 % CI] |\n" + "|---" * 14 + "|"
+    "| P(improvement over next) [95 % CI] | re-scored in full |\n" + "|---" * 15 + "|"
 )
 
 
@@ -56,6 +56,13 @@ def _p_next(row: dict) -> str:
     return text + (" (tied)" if row["tied_with_next"] == "True" else "")
 
 
+def _rescored(row: dict) -> str:
+    """How many of the row's runs a full re-score reproduced, with the files they hold now,
+    and when (the ledger, `verify --record`); every run is also re-scored in part by CI."""
+    runs = f"{row.get('rescored_full_runs') or 0} of {row['n_seeds']}"
+    return f"{runs}, {row['rescored_full_on']}" if row.get("rescored_full_on") else runs
+
+
 def markdown_row(row: dict) -> str:
     """One configuration's table row."""
     iqm = (
@@ -82,6 +89,7 @@ def markdown_row(row: dict) -> str:
         supply,
         *tiers,
         _p_next(row),
+        _rescored(row),
     ]
     return "| " + " | ".join(cells) + " |"
 

@@ -120,6 +120,7 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
     """Every readable run, in path order: method, task, config, seed, summary; and the
     skipped paths."""
     found, skipped = [], []
+    ledger = admission.read_ledger(ledger_path(root))
     for dirpath, filenames in walk_sorted(root):
         if "summary.json" not in filenames:
             if "score.json" in filenames:
@@ -155,9 +156,15 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
                 "summary": summary,
                 "dir": dirpath,
                 "trained_version": trained_version(config_path),
+                "rescored_on": admission.rescored_in_full(dirpath, ledger),
             }
         )
     return found, skipped
+
+
+def ledger_path(root: str) -> str:
+    """The ledger of a run tree's checks: `rescored.csv` beside it (`verify --record`)."""
+    return os.path.join(os.path.dirname(os.path.abspath(root)), admission.LEDGER)
 
 
 def _add_incomplete(dirpath: str, found: list[dict]) -> None:
@@ -314,6 +321,8 @@ DARWIN_FIELDS = [
     "in_sample_best_m",
     "published_best_trial",
     "published_source",
+    "rescored_full_runs",
+    "rescored_full_on",
 ]
 
 
@@ -372,6 +381,16 @@ def _status(track: str, trained: int | None, version: int, complete: bool) -> st
     return "ranked" if complete else "provisional"
 
 
+def _rescored(summaries: list[dict]) -> dict:
+    """What re-scored a configuration's runs in full: how many of its runs the ledger says
+    reproduced with the files they hold now, and the latest such date (`verify --record`)."""
+    dates = [s["_rescored_on"] for s in summaries if s.get("_rescored_on")]
+    return {
+        "rescored_full_runs": len(dates),
+        "rescored_full_on": max(dates) if dates else "",
+    }
+
+
 def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
     task, method, config, version, trained = key
     tests = [s["test"] for s in summaries]
@@ -403,6 +422,7 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
             [s.get("sim_steps", 0) + s.get("validation_sim_steps", 0) for s in summaries]
         ),
         "in_sample_best_m": _mean([s.get("best_distance_m") for s in summaries]),
+        **_rescored(summaries),
     }
     if ranked:
         row["iqm_m"] = overall["iqm"]
@@ -461,7 +481,9 @@ def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
             version_of_card = card.get("benchmark_version", 1)
             trained = run.get("trained_version")
             key = (run["task"], run["method"], run["config"], version_of_card, trained)
-            groups[key].append({**run["summary"], "test": card})
+            groups[key].append(
+                {**run["summary"], "test": card, "_rescored_on": run.get("rescored_on")}
+            )
     return _ranked([_darwin_row(key, summaries) for key, summaries in groups.items()])
 
 

@@ -1,5 +1,6 @@
 """The README on the install it gives: `pip install .` (the core, no extras) in a new virtual
-environment, then the quick start's main job and the submission block, headless.
+environment, then the quick start's main job, the submission block and docs/submit.md's
+complete example, headless.
 
 The venv sees nothing of this environment's packages (no `--system-site-packages`); it is
 made from a copy of the package's files, so the build leaves nothing in the checkout. Every
@@ -26,9 +27,24 @@ _PIP_MACHINE_NOTE = re.compile(r"^WARNING: Location '[^']*' is ignored")
 _SMALL_MAIN_JOB = ("--rounds=1", "--population=4", "--validation_seeds=2", "--test_seeds=2")
 
 
-def _blocks(language: str) -> list[str]:
-    with open(README, encoding="utf-8") as f:
-        return re.findall(rf"```{language}\n(.*?)```", f.read(), flags=re.S)
+SUBMIT_PAGE = os.path.join(ROOT, "docs", "submit.md")
+
+
+def _blocks(language: str, path: str = README) -> list[str]:
+    """The fenced code blocks of a page in that language ("" for none given), in order."""
+    blocks, body, fence = [], [], None
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            if line.startswith("```"):
+                if fence is None:
+                    fence, body = line[3:].strip(), []
+                else:
+                    if fence == language:
+                        blocks.append("".join(body))
+                    fence = None
+            elif fence is not None:
+                body.append(line)
+    return blocks
 
 
 def _commands(block: str) -> list[str]:
@@ -125,6 +141,23 @@ def test_the_readme_runs_on_the_core_install(tmp_path):
     assert (row["method"], row["config"], row["status"]) == ("my_method", "first", "provisional")
     verify_command = next(c for c in after if c.startswith("python -m cpg_suite.protocol.verify"))
     out = _clean(_run(verify_command.split(), work, env), verify_command)
+    assert out.splitlines()[-1] == "1 of 1 shipped runs reproduced bit for bit"
+
+    # docs/submit.md's complete example (a search of its own, submitted), then its commands.
+    page = tmp_path / "submit_page"
+    page.mkdir()
+    (example,) = _blocks("python", SUBMIT_PAGE)
+    (page / "my_search.py").write_text(example)
+    out = _clean(_run(["python", "my_search.py"], page, env), "docs/submit.md's example")
+    assert re.fullmatch(
+        r"training score -?\d+\.\d{3} m after \d+ trials; submitted "
+        r"runs/my_search/darwin_walk/K8_seed0\n",
+        out,
+    ), out
+    commands = [c for c in _blocks("", SUBMIT_PAGE) if "analysis.leaderboard" in c]
+    board_line, verify_line = _commands(commands[0])
+    _clean(_run(board_line.split(), page, env), board_line)
+    out = _clean(_run(verify_line.split(), page, env), verify_line)
     assert out.splitlines()[-1] == "1 of 1 shipped runs reproduced bit for bit"
     print(f"fresh install and the README's blocks: {time.monotonic() - started:.0f} s")
 

@@ -31,6 +31,7 @@ may run is `verify`'s question (`--trust_code`, `verify.code_refusal`).
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import os
 import re
@@ -346,6 +347,51 @@ def _refusal(run_dir: str, version: int | None) -> str | None:
     if match and "seed" in settings and settings["seed"] != int(match["seed"]):
         return f"config.json's seed {settings['seed']} is not the seed of its folder's name"
     return None
+
+
+LEDGER = "rescored.csv"  # beside a run tree: what re-scored each run (`verify --record`)
+LEDGER_FIELDS = ("run", "files_sha256", "check", "trials", "result", "date_utc", "commit")
+
+
+def run_digest(run_dir: str) -> str:
+    """The SHA-256 of the files verify reads of a run (config, summary, trial tables,
+    versions, the gait or policy), by name: a run re-scored is that run only while this
+    holds."""
+    names = sorted(
+        n
+        for n in os.listdir(run_dir)
+        if n in ("config.json", "summary.json", "versions.json", *artifact_files(run_dir))
+        or (n.startswith("trials") and n.endswith(".csv"))
+    )
+    digest = hashlib.sha256()
+    for name in names:
+        with open(os.path.join(run_dir, name), "rb") as f:
+            data = f.read()
+        digest.update(f"{name}\0{len(data)}\0".encode())
+        digest.update(data)
+    return digest.hexdigest()
+
+
+def run_key(run_dir: str) -> str:
+    """A run's name in a ledger: `<method>/<task>/<run>`."""
+    return "/".join(_tail(run_dir))
+
+
+def read_ledger(path: str) -> dict[str, dict]:
+    """A ledger's rows by run (`LEDGER_FIELDS`); {} if there is none."""
+    if not os.path.isfile(path):
+        return {}
+    with open(path, newline="", encoding="utf-8") as f:
+        return {row["run"]: row for row in csv.DictReader(f)}
+
+
+def rescored_in_full(run_dir: str, ledger: dict[str, dict]) -> str | None:
+    """The date a ledger says `run_dir` was re-scored in full and reproduced, if its files
+    are still those it checked (None: not so)."""
+    row = ledger.get(run_key(run_dir))
+    if not row or row["check"] != "full" or row["result"] != "reproduced":
+        return None
+    return row["date_utc"] if row["files_sha256"] == run_digest(run_dir) else None
 
 
 def run_identity(run_dir: str) -> tuple[str, str, str]:

@@ -728,6 +728,27 @@ def audit_runs(
     return flagged
 
 
+def write_ledger(path: str, outcomes: dict[str, list[str]], sample_trials: int = 0) -> None:
+    """Records the runs just checked in a ledger (`admission.LEDGER_FIELDS`), a row per
+    run, replacing that run's earlier row: its files' digest, full or sampled, how many
+    trials, whether they reproduced, when and at which commit. A `--quick` check is not
+    recorded (it checks the code, not the runs)."""
+    ledger = admission.read_ledger(path)
+    environment = runs.environment_record()
+    for run_dir, problems in outcomes.items():
+        trials = len(read_trials(os.path.join(run_dir, "trials.csv")))
+        ledger[admission.run_key(run_dir)] = {
+            "run": admission.run_key(run_dir),
+            "files_sha256": admission.run_digest(run_dir),
+            "check": f"sample {sample_trials}" if sample_trials else "full",
+            "trials": min(sample_trials, trials) if sample_trials else trials,
+            "result": "differs" if problems else "reproduced",
+            "date_utc": environment["started_utc"][:10],
+            "commit": environment.get("git_commit") or "",
+        }
+    runs.write_rows_csv(path, [ledger[k] for k in sorted(ledger)])
+
+
 def history_trials_file(version: int) -> str:
     """The trial table of a run's card under an earlier benchmark version."""
     return f"trials_v{version}.csv"
@@ -812,6 +833,7 @@ def verify(
     sample_trials: int = 0,
     entropy: int | None = None,
     trusted_list: str | None = None,
+    record: str | None = None,
 ) -> int:
     """Re-scores the shipped runs under `artifacts`.
 
@@ -830,6 +852,7 @@ def verify(
         (`cpg_suite.protocol.sample`), compared with its trial table.
       entropy: The draw's entropy (None: fresh from the operating system; logged first).
       trusted_list: A list of trusted pickles' digests (None: the package's).
+      record: A ledger to record each run's check in (`write_ledger`; None: none).
 
     Every run folder is first checked as the leaderboard checks it (`admission.refusals`:
     the files verify needs, a card made under the protocol's card settings that its
@@ -867,7 +890,7 @@ def verify(
         "sample": sample_trials,
         "entropy": entropy,
     }
-    failed = len(refused)
+    failed, outcomes = len(refused), {}
     with contextlib.ExitStack() as stack:
         if jobs > 1:
             spawn = multiprocessing.get_context("spawn")  # no forked threads or torch state
@@ -886,8 +909,11 @@ def verify(
                 log(f"REFUSED {run_dir}; {refused[run_dir]}")
                 continue
             problems = outcome(run_dir)
+            outcomes[run_dir] = problems
             failed += bool(problems)
             log(f"{'DIFF' if problems else 'ok  '} {run_dir}" + "".join(f"; {p}" for p in problems))
+    if record:
+        write_ledger(record, outcomes, sample_trials)
     total = len(chosen) + len(refused)
     what = f", {sample_trials} random trials each," if sample_trials else ""
     log(f"{total - failed} of {total} shipped runs{what} reproduced bit for bit")
@@ -938,6 +964,11 @@ def define_flags() -> None:
     )
     flags.DEFINE_integer(
         "audit", 0, "Score every run on this many fresh seeds a tier and compare; 0: no audit."
+    )
+    flags.DEFINE_string(
+        "record",
+        None,
+        "none: not recorded. A ledger (CSV) to record each run's full or sampled check in.",
     )
     flags.DEFINE_string(
         "trusted_list", None, f"none: the package's {TRUSTED_NAME}. A list of trusted pickles."
@@ -1082,6 +1113,7 @@ def main(argv: list[str]) -> None:
             sample_trials=values.sample,
             entropy=values.entropy,
             trusted_list=values.trusted_list,
+            record=None if values.quick and not values.sample else values.record,
         )
     except ValueError as e:
         raise cli.UsageError(str(e)) from None
