@@ -141,7 +141,9 @@ def test_the_readme_runs_on_the_core_install(tmp_path):
     assert (row["method"], row["config"], row["status"]) == ("my_method", "first", "provisional")
     verify_command = next(c for c in after if c.startswith("python -m cpg_suite.protocol.verify"))
     out = _clean(_run(verify_command.split(), work, env), verify_command)
-    assert out.splitlines()[-1] == "1 of 1 shipped runs reproduced bit for bit"
+    lines = out.splitlines()
+    assert lines[0].startswith("sample: 20 trials a run, drawn with --entropy=")
+    assert lines[-1] == "1 of 1 shipped runs, 20 random trials each, reproduced bit for bit"
 
     # docs/submit.md's complete example (a search of its own, submitted), then its commands.
     page = tmp_path / "submit_page"
