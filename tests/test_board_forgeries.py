@@ -7,8 +7,10 @@ import json
 import os
 import pickle
 import shutil
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 
@@ -303,3 +305,33 @@ def test_run_files_take_the_users_umask(tmp_path):
     )
     subprocess.run([sys.executable, "-c", script, str(tmp_path / "x.json")], check=True)
     assert (tmp_path / "x.json").stat().st_mode & 0o777 == 0o640
+
+
+def test_a_submission_killed_midway_leaves_no_run_and_the_board_lists_its_folder(tmp_path):
+    root = tmp_path / "runs"
+    command = [
+        sys.executable,
+        "-m",
+        "cpg_suite.protocol.submit",
+        f"--gait={os.path.join(GAIT_RUN, 'selected_params.json')}",
+        "--method=my_method",
+        "--config=K8",
+        "--seed=0",
+        f"--root={root}",
+    ]
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    task = root / "my_method" / "darwin_walk"
+    deadline = time.monotonic() + 120
+    while not (
+        task.is_dir() and any(p.name.startswith(".K8_seed0.partial-") for p in task.iterdir())
+    ):
+        assert time.monotonic() < deadline and process.poll() is None, "no partial folder"
+        time.sleep(0.05)
+    process.send_signal(signal.SIGTERM)  # the default action: the process ends at once
+    process.wait(timeout=60)
+    assert not (task / "K8_seed0").exists()  # a resubmission is not refused as "exists"
+    found, _ = leaderboard.find_runs(str(root))
+    _, refused = leaderboard.admit(found)
+    (row,) = refused
+    assert row["run"].startswith("my_method/darwin_walk/.K8_seed0.partial-")
+    assert row["reason"].startswith("a submission's half-written folder")

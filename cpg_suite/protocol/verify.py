@@ -923,7 +923,12 @@ def verify(
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
     flags.DEFINE_string("artifacts", ARTIFACTS, "Folder of shipped runs.")
-    flags.DEFINE_bool("quick", False, f"Re-score {QUICK_SEEDS} seeds per tier of one run each.")
+    flags.DEFINE_bool(
+        "quick",
+        False,
+        f"A check of the code: the first {QUICK_SEEDS} test seeds a tier of each "
+        "configuration's first run.",
+    )
     flags.DEFINE_integer("threads", 2, "Evaluator threads (results do not depend on it).")
     flags.DEFINE_integer("jobs", 2, "Runs re-scored at once, a process each (1: none).")
     flags.DEFINE_string(
