@@ -1,4 +1,4 @@
-"""benchmarks/contact_census.py: it sees contacts outside the soles' pairs, runs a trial as
+"""investigations/contact_census.py: it sees contacts outside the soles' pairs, runs a trial as
 the score card does, and stops on bad input with one line."""
 
 import csv
@@ -11,7 +11,7 @@ import mujoco
 
 import cpg_suite
 
-SCRIPT = os.path.join(os.path.dirname(__file__), "..", "benchmarks", "contact_census.py")
+SCRIPT = os.path.join(os.path.dirname(__file__), "..", "investigations", "contact_census.py")
 
 
 def _module():

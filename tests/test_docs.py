@@ -4,7 +4,7 @@ import os
 import re
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SOURCES = ("cpg_suite", "baselines", "analysis", "benchmarks", "tests", "docs")
+SOURCES = ("cpg_suite", "baselines", "analysis", "benchmarks", "investigations", "tests", "docs")
 # A citation: docs/<file>.md, optionally #<anchor> (GitHub-style: the heading in lower case,
 # punctuation dropped, spaces as hyphens). Upper case is captured so that it fails.
 CITATION = re.compile(r"docs/([A-Za-z0-9_./-]+\.md)(?:#([A-Za-z0-9_-]+))?")

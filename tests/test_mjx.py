@@ -40,7 +40,7 @@ STEPS = 40  # control steps compared reading by reading.
 ATOL = 1e-8
 # Full trials (1000 steps): contact events amplify the last-bit differences, so trials drift
 # apart as the CPU's own trials do from a start moved by 1e-9 rad. Measured with
-# benchmarks/mjx_agreement.py, hand-tuned gait, seeds 0-4: float64 MJX within 5.6e-4 m of
+# investigations/mjx_agreement.py, hand-tuned gait, seeds 0-4: float64 MJX within 5.6e-4 m of
 # the CPU's distance and 3.4e-3 m of its lateral drift; the CPU from the moved start within
 # 3.6e-3 m and 6.8e-3 m (docs/architecture.md#the-mjx-path).
 DISTANCE_ATOL = 5e-3  # m

@@ -22,7 +22,7 @@ def test_nothing_derived_differs_from_its_rebuild():
 
 def test_results_holds_data_not_code():
     """results/ keeps data, figures and READMEs; the scripts that made them live with the
-    code (benchmarks/, baselines/experiments/)."""
+    code (investigations/, benchmarks/, baselines/experiments/)."""
     import os
 
     root = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "results")

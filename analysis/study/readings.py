@@ -81,7 +81,7 @@ NOT_REPRODUCED = {
     "(0 of 5 seeds; 4 N not run)",
     "PB-6b": "the form of the approach/away reward, which the thesis does not give (seed L752): "
     "ours cuts the falls by a tenth but balances 100 angle bins in 0 of 5 seeds",
-    "CPG-4": "a measured difference in how our robot steps under the CPG (benchmarks/"
+    "CPG-4": "a measured difference in how our robot steps under the CPG (investigations/"
     "cop_baseline.py; docs/decisions.md, Chapter 5's balance baseline): its COP sits 5.1 cm "
     "from the stance sole's centre, at the sole's edge (half-length 5.25 cm), where the "
     "thesis' stayed close (seed L1032); standing still 1.82 cm. Causes, measured: the flexKnee "

@@ -23,7 +23,7 @@ FOOT_GEOMS = ("foot_l", "foot_r")  # the soles' collision boxes, left then right
 SOLE_SITES = ("sole_l", "sole_r")  # the soles' centres, left then right
 FLOOR_GEOM = "floor"
 # The floor and the soles: every contact of the CPU reference's trials that did not fall
-# (benchmarks/contact_census.py), the pairs `mjx.WalkEnv(contacts="soles")` keeps.
+# (investigations/contact_census.py), the pairs `mjx.WalkEnv(contacts="soles")` keeps.
 GROUND_GEOMS = (FLOOR_GEOM, *FOOT_GEOMS)
 ARM_JOINTS = (
     "ShoulderL",

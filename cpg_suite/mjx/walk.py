@@ -188,14 +188,14 @@ class WalkEnv:
             `vmap` every robot pays for the full line search and for the slowest robot's
             iterations, so caps are much faster on a GPU (results/mjx); MuJoCo C on this
             model needs about 1.2-1.4 solver iterations per step and up to 7 line-search
-            evaluations, sampled once per control step (`benchmarks/solver_stats.py`;
+            evaluations, sampled once per control step (`investigations/solver_stats.py`;
             not the same unit as MJX's line-search iterations).
-            `benchmarks/mjx_agreement.py --solver_iterations` measures what a cap changes.
+            `investigations/mjx_agreement.py --solver_iterations` measures what a cap changes.
           contacts: None keeps the physics' own; "model" computes every contact pair of
             the MJCF, as the CPU reference does; "soles" only the pairs among the floor and
             the soles
             (`sole_contacts_only`): the same physics as long as nothing else touches
-            (`benchmarks/contact_census.py` measures how long that is in the reference),
+            (`investigations/contact_census.py` measures how long that is in the reference),
             and about a seventh of the constraint rows, which MJX computes for every
             pair whether it touches or not.
           timestep: The physics step, s (None: the physics' own); it must divide the

@@ -1,6 +1,6 @@
 """The shipped runs' test cards at a git revision beside the cards in the working tree.
 
-    python benchmarks/compare_cards.py --before=REV
+    python investigations/compare_cards.py --before=REV
 
 prints a Markdown table, one row per shipped run whose card or trials differ: the all-tier
 success-weighted distance with its 95 % interval and the falls per tier (of the trials per

@@ -1,6 +1,6 @@
 r"""Would MuJoCo's `dcmotor` actuator keep the DARwIn-OP's physics? A measurement.
 
-  python benchmarks/dcmotor_equivalence.py [--steps=1000]
+  python investigations/dcmotor_equivalence.py [--steps=1000]
 
 The model's servos are `position` actuators (kp = 40 N·m/rad, force clamped at ±2.5 N·m)
 with the back-EMF braking as joint damping (0.43 N·m·s/rad). MuJoCo ≥ 3.7 has a `dcmotor`

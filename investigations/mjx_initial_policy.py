@@ -1,6 +1,6 @@
 """The untrained PPO-on-MJX policy of each head, validated on the CPU task.
 
-  python benchmarks/mjx_initial_policy.py
+  python investigations/mjx_initial_policy.py
 
 For `--policy_head` tanh_normal (Brax's default) and normal (SB3's Gaussian) and network
 seeds 0-2: the `cpg` policy `baselines.ppo_mjx` starts from (normalizer at its initial

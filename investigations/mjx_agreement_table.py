@@ -1,8 +1,8 @@
 """The table of results/mjx/README.md#the-training-physics, from the agreement log.
 
-    python benchmarks/mjx_agreement_table.py [results/mjx/cpu_agreement_training_physics.log]
+    python investigations/mjx_agreement_table.py [results/mjx/cpu_agreement_training_physics.log]
 
-The log holds `benchmarks/mjx_agreement.py`'s output for each physics and gait, each run
+The log holds `investigations/mjx_agreement.py`'s output for each physics and gait, each run
 under a line `== <physics name> <gait> <flags>` (the JSON line per seed that the script
 prints); this prints, per physics and gait, the mean distance of the MJX and CPU trials,
 the largest differences of distance and lateral drift, and the MJX falls.

@@ -14,9 +14,9 @@ inside the evaluator (`evaluation.closed_loop`), not through a policy.
 The table (`summary`) gives per configuration the minutes to the winding's limit with the
 copper's temperature coefficient and without it (α = 0), from the trials' mean losses.
 
-    python benchmarks/thermal_estimate.py                   # every run, 5 nominal seeds each
-    python benchmarks/thermal_estimate.py --seeds=2 --runs=ppo/darwin_walk
-    python benchmarks/thermal_estimate.py --summary          # the table of the kept trials.csv
+    python investigations/thermal_estimate.py                   # every run, 5 nominal seeds each
+    python investigations/thermal_estimate.py --seeds=2 --runs=ppo/darwin_walk
+    python investigations/thermal_estimate.py --summary          # the table of the kept trials.csv
 
 Writes `trials.csv` (a row per trial and motor) beside this file, or under --out.
 """

@@ -1,6 +1,6 @@
 r"""Which bodies touch the floor in the CPU reference trials: the soles, or more?
 
-  python benchmarks/contact_census.py [--runs=results/protocol/runs] [--seeds=5]
+  python investigations/contact_census.py [--runs=results/protocol/runs] [--seeds=5]
       [--tiers=darwin_walk,darwin_walk_randomized,darwin_walk_push] [--out=FILE]
 
 `cpg_suite.mjx.WalkEnv(contacts="soles")` keeps only the contact pairs among the floor and

@@ -1,6 +1,6 @@
 r"""How hard MuJoCo C's constraint solver works on the walking robot: iterations per step.
 
-  python benchmarks/solver_stats.py [--params=hand_tuned] [--seeds=0-1] [--steps=1000]
+  python investigations/solver_stats.py [--params=hand_tuned] [--seeds=0-1] [--steps=1000]
 
 Runs the gait in the CPU task `darwin_walk` and, after each control step, reads the last
 physics step's solver statistics (`MjData.solver_niter`, and `neval`, the line search's

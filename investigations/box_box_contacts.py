@@ -1,6 +1,6 @@
 """A DARwIn-OP sole on the rough tier's tiles: MuJoCo C's box-box contacts against MJX's.
 
-  python benchmarks/box_box_contacts.py
+  python investigations/box_box_contacts.py
 
 The rough tier's ground is boxes (`perturbations.tile_xml`), so a sole on it is a box-box
 pair, which MJX collides with its own routine (`collision_convex.box_box`). This builds a

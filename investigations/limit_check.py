@@ -1,6 +1,6 @@
 """Runs trained without the supply limit beside the same seeds trained under it.
 
-    python benchmarks/limit_check.py
+    python investigations/limit_check.py
 
 For each run here (trained under benchmark version 1 with the code of commit 165bf9d), and
 its namesake in `results/protocol/runs/` (trained under version 2): whether every round of

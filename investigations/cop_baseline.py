@@ -1,7 +1,7 @@
 r"""Where the DARwIn-OP's centre of pressure sits under the CPG alone (claim CPG-4, issue 53).
 
-  python benchmarks/cop_baseline.py                      # every case, seed 0 (about 1 min)
-  python benchmarks/cop_baseline.py --seeds=0,1,2 --cases=stand,cpg,flexank_opposes
+  python investigations/cop_baseline.py                      # every case, seed 0 (about 1 min)
+  python investigations/cop_baseline.py --seeds=0,1,2 --cases=stand,cpg,flexank_opposes
 
 The thesis (Sec. 5.5, seed L1032) says the CPG alone already kept the COP close to the
 stance foot's centre. Issue 53's goal: the balance reward's distance (`darwin_balance`) within
@@ -29,7 +29,7 @@ The cases change one thing each (the thesis gives none of these; docs/decisions.
   the hips extended as much, torso upright: the standing COM over the sole centres (a
   choice: the sweep of 3° and 5° is its sensitivity);
 * `walk_ready`: offsets O = the ROBOTIS walking engine's walk-ready stance
-  (shared/spec/darwin_op_facts.md §7.3: torso 13° forward, knee 53°);
+  (the ROBOTIS walking engine's: torso 13° forward, knee 53°);
 * `beta1`: β = 1 /s ≪ ω, so the sway (hip and ankle roll) peaks at mid-swing, as the
   primitives' design has it (β = 8 > ω puts it 54.5° of phase before, at 0.58 of A);
 * `kp100`: servo gain 100 N·m/rad instead of 40 (physics: stiffer joints);
@@ -55,7 +55,7 @@ except ImportError:  # pragma: no cover - the layout before the move
     from cpg_suite import darwin_contacts as contacts
 
 STEPS = 1000  # control steps: the task's episode (16 s), the NAC runs' evaluation length
-# ROBOTIS walk-ready leg angles (darwin_op_facts.md §7.3), anatomical degrees per leg:
+# ROBOTIS walk-ready leg angles (its walking engine's stance), anatomical degrees per leg:
 # hip yaw, hip roll, hip pitch, knee, ankle pitch, ankle roll.
 WALK_READY = np.degrees([0.0, 0.0138, 0.6313, -0.9292, 0.5237, 0.0138])
 

@@ -1,6 +1,6 @@
 """How a PPO `joints` policy's episodes end under the supply limit: falls or brown-outs.
 
-    python benchmarks/probe_policy.py [POLICY_DIR ...]
+    python investigations/probe_policy.py [POLICY_DIR ...]
 
 For each folder (default: `joints_seed0_final` here), its final policy walks 8 robots of
 `darwin_walk` (seeds 100-107, neither validation nor test seeds) for up to 16 s under

@@ -8,7 +8,7 @@ steps are now `python benchmarks/bench_mjx.py --batches=8192 --steps=50 --iterat
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "benchmarks"))
 
 import bench_mjx
 import jax

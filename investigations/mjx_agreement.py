@@ -1,6 +1,6 @@
 r"""A CPG gait (default hand-tuned) in the MJX env and in the CPU reference, from one state.
 
-  python benchmarks/mjx_agreement.py [--params=hand_tuned] [--seeds=0-4] [--steps=1000] \
+  python investigations/mjx_agreement.py [--params=hand_tuned] [--seeds=0-4] [--steps=1000] \
       [--precisions=64,32] [--physics=reference] [--impl=jax] [--solver_iterations=4,8] \
       [--contacts=soles] [--timestep=0.004]
 

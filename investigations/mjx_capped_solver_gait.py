@@ -1,7 +1,7 @@
 """The hand-tuned gait in MJX with the model's solver and capped ones: distance and falls.
 
 The script that produced h100_capped_solver_gait.log (run from the repository root as
-`python benchmarks/mjx_capped_solver_gait.py 512 1000`): B robots of `darwin_walk`, each
+`python investigations/mjx_capped_solver_gait.py 512 1000`): B robots of `darwin_walk`, each
 with its own reset draw, T control steps of the hand-tuned gait's actions; distance is the
 summed reward (torso travel, m) until a fall. (On the H100 the caps were set by a helper
 since replaced by `WalkEnv(solver_iterations=...)`, which sets the same two fields.)
@@ -11,7 +11,7 @@ import os
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "benchmarks"))
 
 import bench_mjx
 import jax
