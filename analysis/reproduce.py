@@ -11,11 +11,19 @@ Runs, as separate processes, into `DIR/runs/`:
      K = 50 in `--full`, under the study's unlimited physics (`--benchmark_version=1`);
   5. CMA-ES at the K = 50 budget (`baselines.cmaes`);
   6. the NAC finding and reward-hypothesis test (`baselines.experiments.nac_experiments`);
+  7. the study's computed evidence from these runs (`baselines.experiments.study_evidence`);
 then `analysis.leaderboard` and `analysis.report` into `DIR/` (with the rendered gaits in
-`--full`, or with `--gaits`). Every step resumes
-finished runs, so an interrupted `--full` continues where it stopped when run again.
-`--quick` shrinks seeds, rounds, trial lengths and learning steps; its numbers show that
-everything runs and how the outputs look, not the benchmark's results.
+`--full`, or with `--gaits`), and last the study's verdicts (`analysis.study`'s rules)
+judged from these runs only, beside the shipped ones (`results/study/claims.csv`):
+`DIR/claims.csv` and `DIR/verdicts.md`, the table printed. Every step resumes finished
+runs, so an interrupted `--full` continues where it stopped when run again.
+
+`--quick` shrinks seeds, rounds, trial lengths and learning steps (the crawler: 5 seeds,
+300 moves, its main configurations); its numbers show that everything runs and how the
+outputs look, not the benchmark's results. A rule needs 5 seeds of its runs: where the
+quick runs have fewer (CEM, pole, NAC), its verdict is "inconclusive" and says which runs
+are missing. The study's full evidence took, by its run files' own records, the time
+`recorded_time` states (printed at the end).
 """
 
 from __future__ import annotations
@@ -25,9 +33,13 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
     cli.without_rendering()
 
+import csv
 import dataclasses
 import functools
+import glob
+import json
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -40,7 +52,7 @@ from cpg_suite import cli
 
 QUICK = {
     "pole": ["--seeds=2", "--steps=6000", "--force_steps=2000"],
-    "crawler": ["--seeds=2", "--moves=300"],
+    "crawler": ["--seeds=5", "--moves=300", "--quick"],
     "cem": [
         "--seeds=1",
         "--rounds=3",
@@ -114,26 +126,36 @@ class ReproduceSettings:
         return bool(self.full) if self.gaits is None else bool(self.gaits)
 
 
+def _cpu_of_children() -> float:
+    """CPU seconds (user + system) of the finished child processes so far."""
+    used = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return used.ru_utime + used.ru_stime
+
+
 def _run(args: list[str], log) -> None:
     command = [sys.executable, "-m", *args]
     log.write(f"$ {' '.join(command)}\n")
     log.flush()
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), _cpu_of_children()
     result = subprocess.run(command, stdout=log, stderr=subprocess.STDOUT, check=False)
-    log.write(f"# exit {result.returncode} after {time.perf_counter() - start:.0f} s\n")
+    log.write(
+        f"# exit {result.returncode} after {time.perf_counter() - start:.0f} s "
+        f"({_cpu_of_children() - cpu:.0f} s of CPU)\n"
+    )
     log.flush()
     if result.returncode != 0:
         raise RuntimeError(f"{args[0]} failed with exit code {result.returncode}; see the log")
 
 
 def experiment_steps(
-    plan: dict, runs: str, threads: int, backend: list[str] = ()
+    plan: dict, runs: str, threads: int, backend: list[str] = (), evidence: str | None = None
 ) -> list[tuple[str, list[str]]]:
     """The experiments in order, as (title, `python -m` arguments): 1. value iteration on
     the Tokic model, 2. the pole claims, 3. the crawler experiments, 4. CEM's Table 6.3
-    (5. its K = 50 seeds in --full), 6. CMA-ES, 7. NAC. Each resumes finished runs.
-    `backend` (`--backend=...`, `--ray_address=...`) goes to the steps that take it
-    (pole, CEM, CMA-ES, NAC; the crawler experiments run here)."""
+    (5. its K = 50 seeds in --full), 6. CMA-ES, 7. NAC, and with `evidence` (the folder
+    `evidence_of` lays out) 8. the study's computed evidence from these runs. Each resumes
+    finished runs. `backend` (`--backend=...`, `--ray_address=...`) goes to the steps that
+    take it (pole, CEM, CMA-ES, NAC; the crawler experiments run here)."""
     backend = list(backend)
     optimizer = [f"--output_dir={runs}", f"--threads={threads}", "--resume", *backend]
     study = ["--benchmark_version=1"]  # the thesis' tables: the study's unlimited physics
@@ -180,7 +202,124 @@ def experiment_steps(
     ]
     nac += plan["nac"]
     steps.append(("NAC", nac))
+    if evidence:
+        steps.append(
+            (
+                "the study's computed evidence",
+                [
+                    "baselines.experiments.study_evidence",
+                    f"--out={os.path.join(evidence, 'study', 'computed.json')}",
+                    f"--study={runs}",
+                    f"--protocol_runs={os.path.join(evidence, NO_RUNS)}",
+                ],
+            )
+        )
     return steps
+
+
+# --- the study's verdicts from the runs made here ------------------------------------------
+
+NO_RUNS = "no_shipped_runs"  # an empty folder: the judge must not fall back on shipped runs
+SHIPPED = os.path.join("results", "study", "claims.csv")
+
+
+def evidence_of(out: str, runs: str) -> str:
+    """Lays the runs out as `analysis.study.Evidence` reads them (`<out>/evidence/study/`:
+    links to the crawler, pole and NAC runs; computed.json written there by its step) and
+    returns the folder."""
+    root = os.path.join(out, "evidence")
+    os.makedirs(os.path.join(root, "study"), exist_ok=True)
+    os.makedirs(os.path.join(root, NO_RUNS), exist_ok=True)
+    for name in ("crawler", "pole", "nac"):
+        link = os.path.join(root, "study", name)
+        if not os.path.lexists(link):
+            os.symlink(os.path.abspath(os.path.join(runs, name)), link)
+    return root
+
+
+def judge(out: str, runs: str, evidence: str, shipped: str = SHIPPED) -> list[str]:
+    """The study's rules on the runs made here, beside the shipped verdicts.
+
+    Writes `<out>/claims.csv` (as `analysis.study`'s, judged from these runs) and
+    `<out>/verdicts.md` (each claim and part: here, shipped), and returns the lines of the
+    printed table: the whole claims, then the tallies.
+    """
+    from analysis.study import build, catalog
+    from analysis.study.evidence import Evidence
+
+    ev = Evidence(study=runs, protocol=os.path.join(evidence, NO_RUNS), results=evidence)
+    here = build.judge(catalog.load(), ev)
+    build.write_csv(os.path.join(out, "claims.csv"), here, build.CLAIM_FIELDS)
+    with open(shipped, encoding="utf-8") as f:
+        before = {r["id"]: r for r in csv.DictReader(f)}
+    same = sum(before.get(c["id"], {}).get("verdict") == c["verdict"] for c in here)
+    lines = [
+        "| claim | here | shipped | evidence here (or why not judged) |",
+        "|---|---|---|---|",
+    ]
+    table = []
+    for c in here:
+        why = c["evidence"] or c["why"]
+        shown = why if len(why) <= 90 else why[:87] + "..."
+        row = f"| {c['id']} | {c['verdict']} | {before.get(c['id'], {}).get('verdict', '-')} |"
+        table.append(f"{row} {shown.replace('|', '/')} |")
+        if not c["parent"]:
+            lines.append(table[-1])
+    tallies = [
+        "",
+        f"here (the same verdict as shipped in {same} of {len(here)} claims and parts): whole "
+        "claims "
+        f"{build.tally(build.counts(here))}; parts and single claims "
+        f"{build.tally(build.leaves(here))}",
+        f"shipped: whole claims {build.tally(build.counts(list(before.values())))}; parts and "
+        f"single claims {build.tally(build.leaves(list(before.values())))}",
+    ]
+    head = [
+        "# The study's verdicts judged from this reproduction's runs",
+        "",
+        "Made by `python -m analysis.reproduce`: `analysis.study`'s rules on the runs in "
+        "`runs/` only (no shipped run stands in), beside the verdicts of the shipped runs "
+        f"(`{shipped}`). A rule needs 5 seeds: with fewer its verdict is inconclusive and "
+        "says which runs are missing.",
+        "",
+    ]
+    with open(os.path.join(out, "verdicts.md"), "w", encoding="utf-8") as f:
+        f.write("\n".join(head + lines[:2] + table + tallies) + "\n")
+    return lines + tallies
+
+
+def recorded_time(results: str = "results") -> str:
+    """The study's full evidence's run time as its shipped run files record it (each run's
+    `wall_s`: the CEM grid and the shipped K = 50 runs, the NAC runs, the sweep's included,
+    the crawler's runs); one line."""
+
+    def hours(pattern: str) -> tuple[float, int]:
+        found = glob.glob(os.path.join(results, pattern))
+        total = 0.0
+        for path in found:
+            with open(path, encoding="utf-8") as f:
+                total += float(json.load(f).get("wall_s", 0.0))
+        return total / 3600, len(found)
+
+    cem, n_cem = hours(os.path.join("study", "runs", "cem", "darwin_walk", "*", "summary.json"))
+    k50, n_k50 = hours(
+        os.path.join(
+            "protocol", "runs", "cem", "darwin_walk", "K50_n0.8_e2_v1_seed*", "summary.json"
+        )
+    )
+    nac, n_nac = hours(os.path.join("study", "nac", "nac", "*", "*", "summary.json"))
+    crawler = os.path.join(results, "study", "crawler", "crawler_realtime.csv")
+    with open(crawler, encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    crawler_h = sum(float(r.get("wall_s") or 0.0) for r in rows) / 3600
+    total = cem + k50 + nac + crawler_h
+    return (
+        f"the study's full evidence took {total:.2f} h of run time by its run files: CEM grid "
+        f"{cem:.2f} h ({n_cem} runs) + the shipped K = 50 {k50:.2f} h ({n_k50}), NAC "
+        f"{nac:.2f} h ({n_nac} runs, the sweep's included), crawler {crawler_h * 60:.1f} min "
+        f"({len(rows)} runs); one thread a run (the CEM grid two runs at a time on 2 cores); "
+        "the pole runs and the computed evidence record none (minutes each)"
+    )
 
 
 def _run_steps(steps: list, log_path: str, log: Callable[[str], None]) -> None:
@@ -231,11 +370,20 @@ def reproduce(settings: ReproduceSettings, log: Callable[[str], None] = _print) 
     backend = [f"--backend={settings.backend}"]
     if settings.ray_address:
         backend.append(f"--ray_address={settings.ray_address}")
-    steps = experiment_steps(plan, runs, settings.threads, backend)
+    evidence = evidence_of(out, runs)
+    steps = experiment_steps(plan, runs, settings.threads, backend, evidence)
+    cpu = _cpu_of_children()
     _run_steps(steps, os.path.join(out, "reproduce.log"), log)
     log(leaderboard.write_tables(runs, os.path.join(out, "leaderboard.csv")))
     log(report.write_report(runs, out, gaits=settings.render_gaits))
-    return f"done in {time.perf_counter() - start:.0f} s: {out}/report.md"
+    for line in judge(out, runs, evidence):
+        log(line)
+    log(recorded_time())
+    used = time.perf_counter() - start
+    return (
+        f"done in {used / 60:.1f} min ({(_cpu_of_children() - cpu) / 60:.1f} min of CPU in "
+        f"its experiments): {out}/report.md, the verdicts {out}/verdicts.md"
+    )
 
 
 def define_flags() -> None:

@@ -1,5 +1,6 @@
-"""`python -m analysis.reproduce --quick` runs every experiment small and writes the report
-(the CI smoke test of the whole pipeline, about two minutes)."""
+"""`python -m analysis.reproduce --quick` runs every experiment small, writes the report and
+ends with the study's verdicts judged from its own runs beside the shipped ones (the CI
+smoke test of the whole pipeline, a few minutes)."""
 
 import csv
 import subprocess
@@ -34,6 +35,21 @@ def test_quick_reproduction(tmp_path):
     assert {"darwin_walk", "pole_balance", "crawler_walk", "tokic", "darwin_balance"} <= tasks
     report = (tmp_path / "report.md").read_text()
     assert "(no data)" not in report
+    # The study's verdicts from these runs only, beside the shipped ones, every claim.
+    with open(tmp_path / "claims.csv", encoding="utf-8") as f:
+        here = {r["id"]: r for r in csv.DictReader(f)}
+    with open("results/study/claims.csv", encoding="utf-8") as f:
+        shipped = {r["id"]: r for r in csv.DictReader(f)}
+    assert set(here) == set(shipped)
+    # Computed from these runs: the Tokic model's claims are judged, not missing.
+    assert here["CR-1b"]["verdict"] == shipped["CR-1b"]["verdict"] == "holds"
+    # Too few seeds is inconclusive, naming the runs, never a fallback on shipped runs.
+    assert here["CEM-14a"]["verdict"] == "inconclusive"
+    assert "of 5 seeds" in here["CEM-14a"]["why"]
+    verdicts = (tmp_path / "verdicts.md").read_text()
+    assert "| CR-1b | holds | holds |" in verdicts
+    assert "| claim | here | shipped |" in out.stdout
+    assert "the study's full evidence took" in out.stdout
 
 
 def test_needs_quick_or_full(tmp_path):

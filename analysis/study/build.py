@@ -26,16 +26,15 @@ from __future__ import annotations
 import csv
 import dataclasses
 import os
-from collections import Counter
 
 from analysis.study import catalog, chapter4, chapter5, chapter6, numbers, revisions  # noqa: F401
 from analysis.study import verdicts as v
 from analysis.study.evidence import Evidence, MissingEvidence
 from analysis.study.readings import NEEDS, NOT_REPRODUCED, READINGS, UNMET
 from analysis.study.registry import RULES
+from analysis.study.verdicts import UNTESTED, counts, leaves, tally
 
 OUT = os.path.join("results", "study")
-UNTESTED = "untested"  # a testable claim without a rule yet (the goal: none)
 CLAIM_FIELDS = (
     "id",
     "parent",
@@ -135,23 +134,6 @@ def write_csv(path: str, rows: list[dict], fields) -> None:
         writer.writeheader()
         writer.writerows(rows)
     os.replace(tmp, path)
-
-
-def counts(claims: list[dict]) -> Counter:
-    """Verdicts of the whole claims (parts counted through their whole)."""
-    return Counter(c["verdict"] for c in claims if not c["parent"])
-
-
-def leaves(claims: list[dict]) -> Counter:
-    """Verdicts of what a rule judges: the parts, and the claims without parts."""
-    wholes = {c["parent"] for c in claims if c["parent"]}
-    return Counter(c["verdict"] for c in claims if c["id"] not in wholes)
-
-
-def tally(found: Counter) -> str:
-    """'8 fails, 38 holds, ...' in the order of `verdicts.VERDICTS` (then any other)."""
-    order = [*v.VERDICTS, UNTESTED]
-    return ", ".join(f"{found[k]} {k}" for k in sorted(found, key=order.index) if found[k])
 
 
 def build(out: str = OUT, ev: Evidence | None = None) -> str:

@@ -13,6 +13,7 @@ import numpy as np
 
 from analysis.study import chapter6
 from analysis.study.evidence import Evidence, MissingEvidence
+from analysis.study.verdicts import counts, leaves, tally
 
 FIGURE = "cem_cost_per_round.png"
 PLOTS = "pip install '.[plots]'"
@@ -176,8 +177,6 @@ def write(out: str, claims: list[dict], table: list[dict], ev: Evidence) -> str:
     Raises:
       MissingExtra: Without matplotlib (nothing is written).
     """
-    from analysis.study.build import counts, leaves, tally
-
     figure = os.path.basename(draw(ev, out))
     whole, judged = counts(claims), leaves(claims)
     lines = [

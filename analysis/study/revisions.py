@@ -14,7 +14,7 @@ from collections.abc import Callable
 
 from analysis.study import chapter4, chapter5, chapter6
 from analysis.study import verdicts as v
-from analysis.study.evidence import Evidence
+from analysis.study.evidence import Evidence, MissingEvidence
 
 First = Callable[[Evidence], v.Verdict]
 FIRST: dict[str, First] = {}
@@ -41,7 +41,10 @@ def text(ev: Evidence, claim_id: str) -> str:
     fn = FIRST.get(claim_id)
     if fn is None:
         return ""
-    found = fn(ev)
+    try:
+        found = fn(ev)
+    except MissingEvidence as e:  # runs of a smaller re-run (analysis.reproduce --quick)
+        return f"{v.INCONCLUSIVE}: runs missing: {e}"
     return f"{found.verdict}: {found.evidence}" if found.evidence else found.verdict
 
 

@@ -13,6 +13,7 @@ generator seed, so a verdict is the same bits every time).
 from __future__ import annotations
 
 import dataclasses
+from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
@@ -28,6 +29,7 @@ HOLDS, FAILS, NOT_REPRODUCED, MIXED, INCONCLUSIVE, UNTESTABLE = (
     "not testable here",
 )
 VERDICTS = (HOLDS, FAILS, NOT_REPRODUCED, MIXED, INCONCLUSIVE, UNTESTABLE)
+UNTESTED = "untested"  # a testable claim without a rule yet (the goal: none)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -206,3 +208,23 @@ def joined(parts: Sequence[Verdict], label: str = "") -> Verdict:
     why = "; ".join(p.why for p in parts if p.why and p.verdict != HOLDS)
     text = "; ".join(p.evidence for p in parts)
     return Verdict(all_of(parts), f"{label}: {text}" if label else text, why)
+
+
+# --- counting a study's verdicts (claims.csv rows) ----------------------------------------
+
+
+def counts(claims: list[dict]) -> Counter:
+    """Verdicts of the whole claims (parts counted through their whole)."""
+    return Counter(c["verdict"] for c in claims if not c["parent"])
+
+
+def leaves(claims: list[dict]) -> Counter:
+    """Verdicts of what a rule judges: the parts, and the claims without parts."""
+    wholes = {c["parent"] for c in claims if c["parent"]}
+    return Counter(c["verdict"] for c in claims if c["id"] not in wholes)
+
+
+def tally(found: Counter) -> str:
+    """'8 fails, 38 holds, ...' in the order of `VERDICTS` (then any other)."""
+    order = [*VERDICTS, UNTESTED]
+    return ", ".join(f"{found[k]} {k}" for k in sorted(found, key=order.index) if found[k])
