@@ -270,17 +270,20 @@ def looks_like_run(dirpath: str, names: Iterable[str]) -> bool:
     )
 
 
-def run_refusal(run_dir: str, version: int | None = None) -> str | None:
+def run_refusal(run_dir: str, version: int | None = None, name: str | None = None) -> str | None:
     """Why the board of `version` refuses one run folder (None: admitted, copies aside).
 
     Args:
       run_dir: A run folder `<method>/<task>/<run_name>`.
       version: The board's benchmark version (None: the run's card as it stands).
+      name: The run's folder name, if not `run_dir`'s own (a submission checks its folder
+        before renaming it into place: `submit._submit`).
 
     Returns:
       A one-line reason, or None.
     """
-    if PARTIAL_NAME.match(os.path.basename(os.path.normpath(run_dir))):
+    name = os.path.basename(os.path.normpath(run_dir)) if name is None else name
+    if PARTIAL_NAME.match(name):
         return (
             "a submission's half-written folder: its process ended before the run was "
             "complete (delete it and submit again)"
@@ -289,12 +292,12 @@ def run_refusal(run_dir: str, version: int | None = None) -> str | None:
     if missing:
         return "missing " + ", ".join(missing)
     try:
-        return _refusal(run_dir, version)
+        return _refusal(run_dir, version, name)
     except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError) as e:
         return f"unreadable run files ({type(e).__name__}: {e})"
 
 
-def _refusal(run_dir: str, version: int | None) -> str | None:
+def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
     summary = _read_json(os.path.join(run_dir, "summary.json"))
     settings = _read_json(os.path.join(run_dir, "config.json")).get("settings")
     if not isinstance(settings, dict):
@@ -343,7 +346,7 @@ def _refusal(run_dir: str, version: int | None) -> str | None:
     reason = trials_refusal(card, trials, steps)
     if reason:
         return reason
-    match = SEED_NAME.match(os.path.basename(os.path.normpath(run_dir)))
+    match = SEED_NAME.match(name)
     if match and "seed" in settings and settings["seed"] != int(match["seed"]):
         return f"config.json's seed {settings['seed']} is not the seed of its folder's name"
     return None

@@ -267,7 +267,8 @@ def _score_into(run_dir: str, submission: Submission, write_artifact, trust_code
         os.path.join(run_dir, "versions.json"),
         {"made_with": made, "scored_with": runs.environment_record()},
     )
-    reason = admission.run_refusal(run_dir)
+    final = os.path.basename(submission.run_dir())  # checked under the name it will have
+    reason = admission.run_refusal(run_dir, name=final)
     if reason:  # the files above are what the board admits: this is a bug if it happens
         raise RuntimeError(f"{run_dir}: the board would refuse the submission: {reason}")
     return run_dir
