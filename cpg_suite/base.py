@@ -7,8 +7,9 @@ import os
 
 import mujoco
 import numpy as np
-from dm_control.suite import base as suite_base
 from dm_env import specs
+
+from cpg_suite._headless import suite_base
 
 _XML_DIR = os.path.join(os.path.dirname(__file__), "xml")
 _COMMON_FILES = ("materials.xml", "skybox.xml", "visual.xml")

@@ -36,12 +36,12 @@ from __future__ import annotations
 import collections
 
 import numpy as np
-from dm_control import mujoco
 from dm_control.rl import control
 from dm_control.utils import containers
 from dm_env import specs
 
 from cpg_suite import base
+from cpg_suite._headless import mujoco
 
 GRID = 5
 GY_ANGLES = np.array([-1.2, -0.8, -0.5, 0.1, 0.4])  # rad, rows 0..4 (arm up .. down)

@@ -26,12 +26,12 @@ from __future__ import annotations
 import collections
 
 import numpy as np
-from dm_control import mujoco
 from dm_control.rl import control
 from dm_control.utils import containers
 from dm_env import specs
 
 from cpg_suite import base
+from cpg_suite._headless import mujoco
 
 _DEFAULT_TIME_LIMIT = 20.0  # s: 1000 control steps.
 _CONTROL_TIMESTEP = 0.02  # s: 4 physics steps of 5 ms.

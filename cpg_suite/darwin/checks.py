@@ -17,10 +17,10 @@ from collections.abc import Iterator
 
 import mujoco as mj
 import numpy as np
-from dm_control import mujoco
 from dm_control.rl import control
 
 from cpg_suite import cpg
+from cpg_suite._headless import mujoco
 from cpg_suite.darwin import robot
 
 

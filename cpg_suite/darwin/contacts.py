@@ -12,7 +12,8 @@ import math
 
 import mujoco as mj
 import numpy as np
-from dm_control import mujoco
+
+from cpg_suite._headless import mujoco
 
 STANCE_FRACTION = 0.05  # of body weight: a foot carrying more is a stance foot.
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import mujoco as mj
 import numpy as np
-from dm_control import mujoco
 
 from cpg_suite import perturbations
+from cpg_suite._headless import mujoco
 
 
 def set_servo_gain(physics: mujoco.Physics, kp: float) -> None:

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import mujoco as mj
 import numpy as np
-from dm_control import mujoco
 
 from cpg_suite import cpg
+from cpg_suite._headless import mujoco
 from cpg_suite.darwin import checks, recording, robot
 from cpg_suite.darwin.pose import ARM_POSE
 from cpg_suite.darwin.robot import (

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import mujoco as mj
 import numpy as np
-from dm_control import mujoco
+
+from cpg_suite._headless import mujoco
 
 # Arms 10° out from hanging vertical (±0.785), elbows bent 30° from straight (±1.571), head
 # level (+0.70, the ROBOTIS walking engine's eye-tilt offset); `robot.ARM_JOINTS` order.

@@ -19,9 +19,9 @@ from collections.abc import Callable
 
 import mujoco as mj
 import numpy as np
-from dm_control import mujoco
 
 from cpg_suite import electrical
+from cpg_suite._headless import mujoco
 
 
 class Recording:

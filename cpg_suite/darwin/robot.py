@@ -12,9 +12,9 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from dm_control import mujoco
 
 from cpg_suite import base, cpg, perturbations, portable
+from cpg_suite._headless import mujoco
 
 FALL_HEIGHT = 0.22  # m: torso origin height below which the robot has fallen.
 FALL_TILT_COS = float(portable.cos(np.deg2rad(50.0)))  # torso z-axis · world z below this: fallen.
