@@ -2,9 +2,20 @@
 library), or an open-loop table of actions.
 
 The format of `selected_policy.npz` (written by `NumpyPolicy.save`; `baselines.ppo_mjx`
-exports Brax's PPO to it): `mean`, `std` (observation normalization), `kernel_<i>`,
-`bias_<i>` (the dense layers, input first), `action_space` ("joints" or "cpg") and `head`
-(`HEADS`; files without it are "tanh_normal").
+exports Brax's PPO to it, `python -m cpg_suite.harness.sb3 --export` Stable-Baselines3's):
+`mean`, `std` (observation normalization), `kernel_<i>`, `bias_<i>` (the dense layers, input
+first), `action_space` ("joints" or "cpg") and `head` (`HEADS`; files without it are
+"tanh_normal"). Optional, for what other learners compute (absent: Brax's PPO):
+
+* `activation` between the layers (`ACTIVATIONS`; "swish" without it);
+* `var`, `epsilon`, `clip_obs` in place of `std`: SB3's `VecNormalize`, the observation
+  clip((x − mean)/√(var + epsilon), −clip_obs, clip_obs);
+* `input_dtype` (`INPUT_DTYPES`; "float64" without it): "float32" rounds the normalized
+  observation to float32 before the first layer (what SB3 hands torch);
+* `action_low`, `action_high`: the box the "normal" head clips the action to (−1, 1
+  without them);
+* `amplitude_scale`, `rate_scale`: the `cpg` action space's corrections per unit action
+  (`residual.ModulatedCPG`; its defaults without them).
 
 The format of `selected_actions.npy` (written by `ActionTable.save`): one float64 array of
 shape (control steps, 12), row t the task's action at control step t of a trial (0-based,
@@ -31,8 +42,12 @@ N_ACTIONS = len(cpg.LEG_JOINTS)  # the tasks' action: the 12 leg joint targets i
 ACTION_SPACES = residual.ACTION_SPACES
 # How the last layer's output becomes the deterministic action: "tanh_normal", the first
 # half (a tanh-Gaussian's mean) through tanh; "normal", all of it (a Gaussian's mean,
-# whose standard deviation is a parameter apart) clipped to [−1, 1] as the tasks clip it.
+# whose standard deviation is a parameter apart) clipped to [−1, 1] as the tasks clip it
+# (or to the policy's action box, `action_low` and `action_high`).
 HEADS = ("tanh_normal", "normal")
+INPUT_DTYPES = ("float64", "float32")
+# The normalizer's arrays, SB3's VecNormalize: `var`, `epsilon`, `clip_obs` (instead of `std`).
+VEC_NORMALIZE = ("var", "epsilon", "clip_obs")
 
 
 _ROWS = 8  # observations per pass through the network (`mlp`)
@@ -69,26 +84,35 @@ def _swish(x: np.ndarray) -> np.ndarray:
     return x * portable.expit(x)  # without exp's overflow
 
 
+# Between the layers: Brax's PPO networks' swish, SB3's `MlpPolicy`'s tanh (both portable).
+ACTIVATIONS = {"swish": _swish, "tanh": portable.tanh}
+
+
 class NumpyPolicy:
-    """A policy trained elsewhere (e.g. Brax's PPO on MJX), run in the CPU task with NumPy.
+    """A policy trained elsewhere (Brax's PPO on MJX, Stable-Baselines3's PPO), run in the
+    CPU task with NumPy.
 
     The deterministic action of a Gaussian MLP policy: the observation vector
     (`darwin.OBSERVATION_KEYS` in order, plus the CPG phase for `cpg`: the MJX env's) is
-    normalized by running statistics, passed through the MLP (swish between layers) and
-    its output made an action by the policy's head (`HEADS`). For the `cpg` action space
-    the policy steps its own CPG row (`reset()` before each episode), as the MJX env does.
-    The layers multiply with `portable.pairwise_matmul`, not BLAS, whose kernel is chosen
-    per CPU and changes the last bits, and with them whole trials.
+    normalized by running statistics (Brax's, or SB3's `VecNormalize`: clipped, rounded
+    to float32), passed through the MLP (`ACTIVATIONS` between layers) and its output made
+    an action by the policy's head (`HEADS`). For the `cpg` action space the policy steps
+    its own CPG row (`reset()` before each episode), as the MJX env does. The layers
+    multiply with `portable.pairwise_matmul`, not BLAS, whose kernel is chosen per CPU and
+    changes the last bits, and with them whole trials.
     """
 
     def __init__(self, arrays: dict[str, np.ndarray], action_space: str):
         """Args:
-          arrays: `mean`, `std` and `kernel_<i>`, `bias_<i>` for each layer; `head`
-            (default "tanh_normal").
+          arrays: `mean`, `std` (or `VEC_NORMALIZE`'s) and `kernel_<i>`, `bias_<i>` for each
+            layer; optionally `head` (default "tanh_normal"), `activation`, `input_dtype`,
+            `action_low`, `action_high`, `amplitude_scale`, `rate_scale` (the module's
+            docstring).
           action_space: "joints" or "cpg".
 
         Raises:
-          ValueError: On an unknown action space or head, or missing layers.
+          ValueError: On an unknown action space, head, activation or input type, missing
+            layers or normalizer, or a CPG scale out of range.
         """
         if action_space not in ACTION_SPACES:
             raise ValueError(f"action_space must be one of {ACTION_SPACES}, got {action_space!r}")
@@ -96,8 +120,24 @@ class NumpyPolicy:
         self.head = str(arrays.get("head", HEADS[0]))
         if self.head not in HEADS:
             raise ValueError(f"head must be one of {HEADS}, got {self.head!r}")
+        self.activation = str(arrays.get("activation", "swish"))
+        if self.activation not in ACTIVATIONS:
+            raise ValueError(
+                f"activation must be one of {tuple(ACTIVATIONS)}, got {self.activation!r}"
+            )
+        self.input_dtype = str(arrays.get("input_dtype", INPUT_DTYPES[0]))
+        if self.input_dtype not in INPUT_DTYPES:
+            raise ValueError(f"input_dtype must be one of {INPUT_DTYPES}, got {self.input_dtype!r}")
         self.mean = np.asarray(arrays["mean"], np.float64)
-        self.std = np.asarray(arrays["std"], np.float64)
+        self.var = self.epsilon = self.clip_obs = None
+        if "std" in arrays:
+            self.std = np.asarray(arrays["std"], np.float64)
+        elif all(k in arrays for k in VEC_NORMALIZE):
+            self.var = np.asarray(arrays["var"], np.float64)
+            self.epsilon, self.clip_obs = float(arrays["epsilon"]), float(arrays["clip_obs"])
+            self.std = np.sqrt(self.var + self.epsilon)  # as VecNormalize divides
+        else:
+            raise ValueError(f"the policy has no normalizer (std, or {', '.join(VEC_NORMALIZE)})")
         n = sum(1 for k in arrays if k.startswith("kernel_"))
         if n == 0:
             raise ValueError("the policy has no layers (kernel_0 ...)")
@@ -105,21 +145,42 @@ class NumpyPolicy:
             (np.asarray(arrays[f"kernel_{i}"], np.float64), np.asarray(arrays[f"bias_{i}"]))
             for i in range(n)
         ]
+        self.box = None  # the "normal" head's: [−1, 1]
+        if "action_low" in arrays or "action_high" in arrays:  # both, or a KeyError
+            self.box = tuple(
+                np.asarray(arrays[k], np.float64) for k in ("action_low", "action_high")
+            )
+        self.scales = {
+            k: float(arrays[k]) for k in ("amplitude_scale", "rate_scale") if k in arrays
+        }
         self.cpg, self._physics, self._rows = None, None, None
         if action_space == "cpg":
-            self.cpg = residual.ModulatedCPG(1)
+            self.cpg = residual.ModulatedCPG(1, **self.scales)
             self._physics = cpg_suite.load("darwin_walk").physics  # its joint ranges
 
     @classmethod
     def load(cls, path: str) -> NumpyPolicy:
-        """A policy saved by `save`."""
-        with np.load(path) as data:
+        """A policy saved by `save` (read without unpickling)."""
+        with np.load(path, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
         return cls(arrays, str(arrays.pop("action_space")))
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The policy as the arrays of its file (`NumpyPolicy(arrays, action_space)` again)."""
-        arrays = {"mean": self.mean, "std": self.std, "head": np.array(self.head)}
+        arrays = {"mean": self.mean}
+        if self.var is None:
+            arrays["std"] = self.std
+        else:
+            arrays.update(var=self.var, epsilon=np.float64(self.epsilon))
+            arrays["clip_obs"] = np.float64(self.clip_obs)
+        arrays["head"] = np.array(self.head)
+        if self.activation != "swish":
+            arrays["activation"] = np.array(self.activation)
+        if self.input_dtype != INPUT_DTYPES[0]:
+            arrays["input_dtype"] = np.array(self.input_dtype)
+        if self.box is not None:
+            arrays["action_low"], arrays["action_high"] = self.box
+        arrays.update({k: np.float64(v) for k, v in self.scales.items()})
         for i, (kernel, bias) in enumerate(self.layers):
             arrays[f"kernel_{i}"], arrays[f"bias_{i}"] = kernel, bias
         return arrays
@@ -136,16 +197,20 @@ class NumpyPolicy:
             self.cpg.reset()
 
     def act(self, features: np.ndarray) -> np.ndarray:
-        """Actions in [−1, 1] for (N, D) flat observations (`mlp`, swish between layers)."""
+        """Actions in [−1, 1] for (N, D) flat observations (`mlp`), row by row."""
         x = (np.asarray(features, np.float64) - self.mean) / self.std
-        x = mlp(x, self.layers, _swish)
+        if self.clip_obs is not None:
+            x = np.clip(x, -self.clip_obs, self.clip_obs)
+        if self.input_dtype == "float32":
+            x = x.astype(np.float32).astype(np.float64)
+        x = mlp(x, self.layers, ACTIVATIONS[self.activation])
         if self.head == "normal":
-            return np.clip(x, -1.0, 1.0)
+            return np.clip(x, *(self.box or (-1.0, 1.0)))
         return portable.tanh(x[..., : x.shape[-1] // 2])
 
     def reset_batch(self, rows: int) -> None:
         """Starts `rows` trials stepped together (`act_batch`; `score.batched_policy_trials`)."""
-        self._rows = residual.ModulatedCPG(rows) if self.cpg is not None else None
+        self._rows = residual.ModulatedCPG(rows, **self.scales) if self.cpg is not None else None
 
     def act_batch(self, observations: dict) -> np.ndarray:
         """(n, 12) actions for n trials' observations ((n, ...) arrays), each row what

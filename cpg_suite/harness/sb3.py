@@ -1,7 +1,9 @@
 r"""Stable-Baselines3 on the DARwIn-OP walking tiers: what any SB3 learner (PPO, SAC, ...) reuses.
 
 Needs the `rl` extra (Stable-Baselines3, PyTorch, Gymnasium); only learners import this
-module.
+module. As a command, `python -m cpg_suite.harness.sb3 --export=FOLDER` writes the selected
+policy of every SB3 run under FOLDER as data, `selected_policy.npz` beside its pickles
+(`export_run`), which verify then scores without SB3 or torch, the same trials.
 
 * `make_vector_env`: the (dict-observation) vector env a policy acts in,
   `cpg_suite.vector.DarwinVectorEnv` with same-step autoreset, in one of two action spaces:
@@ -10,12 +12,16 @@ module.
 * `FlatVecEnv`: that env as an SB3 `VecEnv`, the observation dict flattened in the fixed
   order `OBS_KEYS` (then the CPG phase); `normalized` wraps it in SB3's `VecNormalize`.
 * `TrainedPolicy`: a trained model and its `VecNormalize` statistics as a policy for one
-  environment, as `cpg_suite.protocol.score.score_policy` runs it; it acts through
-  `PortableActor`, the network's arithmetic in NumPy, the same bits on any x86-64 CPU.
+  environment, as `cpg_suite.protocol.score.score_policy` runs it; it acts through its
+  export (`export_policy`: the network's arithmetic in NumPy, `exported.NumpyPolicy`, the
+  same bits on any x86-64 CPU).
+* `export_run`: a run's selected policy written as data, `selected_policy.npz` beside its
+  pickles (`python -m cpg_suite.harness.sb3 --export=FOLDER`, every run under a folder);
+  verify then scores the arrays, the same trials bit for bit, without SB3 or torch.
 * `import_torch`, `load_model`, `model_bytes`: torch imported safely, models to and from
   bytes; `single_threaded`: torch on one thread for a while (training and scoring use it:
   a policy's actions then do not depend on the machine's core count);
-  `load_shipped_policy`: a shipped run's selected policy.
+  `load_shipped_policy`: a run's selected policy from its pickles.
 
 Import order: with MUJOCO_GL=egl, torch must be imported before dm_control loads (README);
 this module imports torch before any module of `cpg_suite`.
@@ -42,9 +48,8 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.distributions import DiagGaussianDistribution
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
-import cpg_suite
-from cpg_suite import darwin, electrical, portable, protocol, residual, vector
-from cpg_suite.harness import exported
+from cpg_suite import cli, darwin, electrical, protocol, residual, vector
+from cpg_suite.harness import exported, runs
 
 # The SB3 algorithm of each policy learner's method name (its run directories' second level).
 ALGORITHMS = {"ppo": "PPO"}
@@ -260,53 +265,65 @@ def normalized(env: VecEnv, gamma: float) -> VecNormalize:
 
 
 # The trained policy.
-class PortableActor:
-    """The deterministic action of a PPO `MlpPolicy` with `cpg_suite.portable`'s arithmetic.
+def export_policy(
+    model: BaseAlgorithm, normalizer: VecNormalize, settings: EnvSettings
+) -> exported.NumpyPolicy:
+    """A PPO `MlpPolicy`'s deterministic action as data, run with `cpg_suite.portable`'s
+    arithmetic (`exported.NumpyPolicy`).
 
     Torch multiplies matrices with kernels (MKL, oneDNN) it picks for the CPU it runs on,
     and their last bits differ from CPU to CPU; in a walking robot's trial a last bit grows
-    into a different fall. This actor computes the same function portably: the raw
-    observation normalized as `VecNormalize` does (clipped, then rounded to float32, which
-    is what SB3 hands torch), the policy network's layers in float64 (`exported.mlp`, as
-    a policy exported from MJX runs) with `portable.tanh`, the Gaussian's mean clipped to the
-    action box. It agrees with torch's float32 `predict` to about 1e-6 (a test) and with
-    itself on every CPU, row by row, whatever the batch.
+    into a different fall. The export computes the same function portably: the raw
+    observation normalized as `VecNormalize` does (its mean, var, epsilon and clip_obs;
+    clipped, then rounded to float32, which is what SB3 hands torch), the policy network's
+    layers (torch's float32 weights, exactly, as float64) with tanh between them
+    (`exported.mlp`, `portable.tanh`), the Gaussian's mean clipped to the action box. It
+    agrees with torch's float32 `predict` to about 1e-6 (a test) and with itself on every
+    CPU, row by row, whatever the batch.
+
+    Args:
+      model: A trained SB3 model whose policy is an `ActorCriticPolicy` with a flat
+        observation, Tanh hidden layers and a diagonal Gaussian head (PPO's `MlpPolicy`).
+      normalizer: Its VecNormalize (statistics only), normalizing observations.
+      settings: The run's settings (its action space and, for `cpg`, its scales).
+
+    Returns:
+      The policy (`exported.NumpyPolicy`; `.save` writes its `selected_policy.npz`).
+
+    Raises:
+      ValueError: On any other policy (another activation, head or extractor), or a
+        normalizer that does not normalize observations.
     """
-
-    def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize):
-        """Args:
-          model: A trained SB3 model whose policy is an `ActorCriticPolicy` with a flat
-            observation, Tanh hidden layers and a diagonal Gaussian head (PPO's `MlpPolicy`).
-          normalizer: Its VecNormalize (statistics only).
-
-        Raises:
-          ValueError: On any other policy (another activation, head or extractor).
-        """
-        policy = model.policy
-        hidden = list(policy.mlp_extractor.policy_net)
-        linear = [m for m in hidden if isinstance(m, torch.nn.Linear)]
-        if (
-            not isinstance(policy.action_dist, DiagGaussianDistribution)
-            or policy.squash_output
-            or any(not isinstance(m, (torch.nn.Linear, torch.nn.Tanh)) for m in hidden)
-            or len(linear) * 2 != len(hidden)
-        ):
-            raise ValueError("PortableActor needs an MlpPolicy: Tanh layers, a Gaussian head")
-        self.layers = [_float64(m) for m in [*linear, policy.action_net]]
-        rms = normalizer.obs_rms
-        self.mean = np.asarray(rms.mean, np.float64)
-        self.scale = np.sqrt(np.asarray(rms.var, np.float64) + normalizer.epsilon)
-        self.clip_obs = float(normalizer.clip_obs) if normalizer.norm_obs else None
-        space = policy.action_space
-        self.low, self.high = np.asarray(space.low, np.float64), np.asarray(space.high, np.float64)
-
-    def __call__(self, flat: np.ndarray) -> np.ndarray:
-        """(N, A) float64 actions for (N, D) raw flat observations."""
-        x = np.asarray(flat, np.float64)
-        if self.clip_obs is not None:
-            x = np.clip((x - self.mean) / self.scale, -self.clip_obs, self.clip_obs)
-        x = exported.mlp(x.astype(np.float32).astype(np.float64), self.layers, portable.tanh)
-        return np.clip(x, self.low, self.high)
+    policy = model.policy
+    hidden = list(policy.mlp_extractor.policy_net)
+    linear = [m for m in hidden if isinstance(m, torch.nn.Linear)]
+    if (
+        not isinstance(policy.action_dist, DiagGaussianDistribution)
+        or policy.squash_output
+        or any(not isinstance(m, (torch.nn.Linear, torch.nn.Tanh)) for m in hidden)
+        or len(linear) * 2 != len(hidden)
+    ):
+        raise ValueError("export_policy needs an MlpPolicy: Tanh layers, a Gaussian head")
+    if not normalizer.norm_obs:
+        raise ValueError("export_policy needs a VecNormalize that normalizes observations")
+    rms, space = normalizer.obs_rms, policy.action_space
+    arrays = {
+        "mean": np.asarray(rms.mean, np.float64),
+        "var": np.asarray(rms.var, np.float64),
+        "epsilon": np.float64(normalizer.epsilon),
+        "clip_obs": np.float64(normalizer.clip_obs),
+        "input_dtype": np.array("float32"),
+        "activation": np.array("tanh"),
+        "head": np.array("normal"),
+        "action_low": np.asarray(space.low, np.float64),
+        "action_high": np.asarray(space.high, np.float64),
+    }
+    if settings.action_space == "cpg":
+        arrays["amplitude_scale"] = np.float64(settings.amplitude_scale)
+        arrays["rate_scale"] = np.float64(settings.rate_scale)
+    for i, layer in enumerate([*linear, policy.action_net]):
+        arrays[f"kernel_{i}"], arrays[f"bias_{i}"] = _float64(layer)
+    return exported.NumpyPolicy(arrays, settings.action_space)
 
 
 def _float64(layer: torch.nn.Linear) -> tuple[np.ndarray, np.ndarray]:
@@ -319,9 +336,11 @@ class TrainedPolicy:
     """A trained policy for one environment (`cpg_suite.protocol.score.score_policy`): a dm_env
     observation → (12,) normalized joint targets, deterministic.
 
-    Flattens the observation (`OBS_KEYS`, plus the CPG phase for the cpg action space),
-    normalizes it with the run's VecNormalize statistics, takes the policy's mean action
-    and, for the cpg action space, steps its own CPG row (`reset()` before each episode).
+    Its export (`export_policy`, `self.exported`) acts: it flattens the observation
+    (`OBS_KEYS`, plus the CPG phase for the cpg action space), normalizes it with the run's
+    VecNormalize statistics, takes the policy's mean action and, for the cpg action space,
+    steps its own CPG row (`reset()` before each episode). `actor`: its network alone,
+    (N, D) raw flat observations → (N, A) actions.
     """
 
     def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize, settings: EnvSettings):
@@ -331,11 +350,8 @@ class TrainedPolicy:
         settings: The run's settings (its action space).
         """
         self.model, self.normalizer, self.settings = model, normalizer, settings
-        self.actor = PortableActor(model, normalizer)
-        self.cpg = self._cpg_rows(1)
-        if self.cpg is not None:
-            self._physics = cpg_suite.load("darwin_walk").physics
-        self.keys = OBS_KEYS + ((residual.PHASE_KEY,) if self.cpg is not None else ())
+        self.exported = export_policy(model, normalizer, settings)
+        self.actor = self.exported.act
 
     @classmethod
     def load(
@@ -364,42 +380,19 @@ class TrainedPolicy:
 
     def reset(self) -> None:
         """Restarts the policy's CPG (before each episode)."""
-        if self.cpg is not None:
-            self.cpg.reset()
-
-    def _cpg_rows(self, rows: int) -> residual.ModulatedCPG | None:
-        """The policy's own CPG, `rows` rows, for the `cpg` action space (else None)."""
-        if self.settings.action_space != "cpg":
-            return None
-        return residual.ModulatedCPG(
-            rows,
-            amplitude_scale=self.settings.amplitude_scale,
-            rate_scale=self.settings.rate_scale,
-        )
+        self.exported.reset()
 
     def reset_batch(self, rows: int) -> None:
         """Starts `rows` trials stepped together (`act_batch`; `score.batched_policy_trials`)."""
-        self._rows = self._cpg_rows(rows)
+        self.exported.reset_batch(rows)
 
     def act_batch(self, observations: dict) -> np.ndarray:
         """(n, 12) actions for n trials' observations ((n, ...) arrays), each row what
-        `__call__` gives that trial: the actor's arithmetic is row by row, and so is the
-        CPG rows' (element-wise)."""
-        flat = residual.batch_features(observations, OBS_KEYS, self._rows)
-        action = self.actor(flat)
-        if self._rows is None:
-            return action
-        return residual.joint_actions(action, self._rows, self._physics, darwin.CONTROL_TIMESTEP)
+        `__call__` gives that trial (`exported.NumpyPolicy.act_batch`)."""
+        return self.exported.act_batch(observations)
 
     def __call__(self, observation: dict) -> np.ndarray:
-        features = dict(observation)
-        if self.cpg is not None:
-            features[residual.PHASE_KEY] = self.cpg.phase_features()[0]
-        flat = flatten_one(features, self.keys)[None]
-        action = self.actor(flat)
-        if self.cpg is None:
-            return action[0]
-        return residual.joint_actions(action, self.cpg, self._physics, darwin.CONTROL_TIMESTEP)[0]
+        return self.exported(observation)
 
 
 def predict(model: BaseAlgorithm, normalizer: VecNormalize, flat: np.ndarray) -> np.ndarray:
@@ -416,7 +409,7 @@ def predict(model: BaseAlgorithm, normalizer: VecNormalize, flat: np.ndarray) ->
     `model.predict(..., deterministic=True)`'s steps with the policy's own methods, but the
     policy is put in evaluation mode only when it is not (SB3 walks all its modules on
     every call, a third of a one-row call's time); the same arithmetic, the same bits.
-    Torch's: training's validation uses it; the test protocol uses `PortableActor`.
+    Torch's: training's validation uses it; the test protocol uses `export_policy`'s.
     """
     policy = model.policy
     if policy.training:
@@ -507,3 +500,83 @@ def load_shipped_policy(run_dir: str, method: str, settings: dict) -> TrainedPol
         raise ValueError(f"unknown policy learner {method!r}; known: {', '.join(ALGORITHMS)}")
     algorithm = getattr(stable_baselines3, ALGORITHMS[method])
     return TrainedPolicy.load(run_dir, algorithm, types.SimpleNamespace(**settings))
+
+
+# Exporting shipped runs as data.
+SB3_FILES = ("selected_model.zip", "selected_vecnormalize.pkl")  # a run's selected policy
+
+
+def sb3_runs(folder: str) -> list[str]:
+    """The run folders under `folder` (itself included) that hold `SB3_FILES`, sorted."""
+    return sorted(d for d, _, names in os.walk(folder) if all(n in names for n in SB3_FILES))
+
+
+def export_run(run_dir: str, overwrite: bool = False) -> tuple[str, str]:
+    """Writes a run's selected SB3 policy as data: `selected_policy.npz` beside its pickles
+    (`export_policy`), which verify then scores instead of them (the same trials).
+
+    Loading the pickles runs their code: export runs of your own, or the project's.
+
+    Args:
+      run_dir: A run folder with `SB3_FILES` and config.json, under `<method>/<task>/`
+        (the method names the SB3 algorithm, `ALGORITHMS`).
+      overwrite: Whether an existing `selected_policy.npz` that differs is replaced.
+
+    Returns:
+      (the file's path, "wrote", "same" (the file held these arrays already) or "replaced").
+
+    Raises:
+      OSError, KeyError, ValueError: On a run without readable files, of an unknown
+        method, or whose policy `export_policy` does not compute.
+      FileExistsError: If the run holds another `selected_policy.npz` and not `overwrite`.
+    """
+    config = runs.read_json(os.path.join(run_dir, "config.json"))
+    method = os.path.basename(os.path.dirname(os.path.dirname(os.path.abspath(run_dir))))
+    policy = load_shipped_policy(run_dir, method, config["settings"])
+    arrays = {**policy.exported.arrays(), "action_space": np.array(policy.exported.action_space)}
+    path = os.path.join(run_dir, exported.FILE)
+    status = "wrote"
+    if os.path.exists(path):
+        with np.load(path, allow_pickle=False) as old:
+            if set(old.files) == set(arrays) and all(
+                old[k].dtype == v.dtype and np.array_equal(old[k], v) for k, v in arrays.items()
+            ):
+                return path, "same"
+        if not overwrite:
+            raise FileExistsError(f"{path} holds another policy (--overwrite replaces it)")
+        status = "replaced"
+    policy.exported.save(path)
+    return path, status
+
+
+def main(argv: list[str]) -> None:
+    """`--export`: every SB3 run under a folder written as data (`export_run`)."""
+    del argv
+    from absl import flags
+
+    values = flags.FLAGS
+    folder = values.export
+    cli.check(os.path.isdir(folder), f"--export={folder}: no such folder")
+    found = sb3_runs(folder)
+    cli.check(bool(found), f"--export={folder}: no run under it holds {' and '.join(SB3_FILES)}")
+    for run_dir in found:
+        try:
+            path, status = export_run(run_dir, values.overwrite)
+        except (OSError, KeyError, ValueError) as e:
+            raise cli.UsageError(f"{run_dir}: {e}") from None
+        print(f"{status:8} {path}")
+    print(f"{len(found)} runs' policies exported as {exported.FILE}")
+
+
+if __name__ == "__main__":
+    from absl import flags
+
+    flags.DEFINE_string(
+        "export",
+        None,
+        f"A run folder, or a folder of runs: writes {exported.FILE} (the selected policy as "
+        f"NumPy arrays, no pickle) beside the {' and '.join(SB3_FILES)} of each run under it.",
+        required=True,
+    )
+    flags.DEFINE_bool("overwrite", False, f"Replace a {exported.FILE} that holds another policy.")
+    cli.run(main)
