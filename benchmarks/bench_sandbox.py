@@ -68,6 +68,11 @@ def main(argv: list[str]) -> None:
     del argv
     values = flags.FLAGS
     cli.check(1 <= values.seeds <= len(protocol.TEST), "--seeds must be in [1, 50]")
+    cli.check(values.steps >= 1, f"--steps must be ≥ 1, got {values.steps}")
+    cli.check(
+        values.tier in protocol.TIERS,
+        f"unknown --tier {values.tier!r}; valid: {', '.join(protocol.TIERS)}",
+    )
     settings = score.ScoreSettings(steps=values.steps)
     chosen = {values.tier: list(protocol.TEST[: values.seeds])}
     with tempfile.TemporaryDirectory() as folder:

@@ -158,7 +158,7 @@ def fail(message: str) -> None:
 HELP = ("--help", "-h", "-?", "--helpshort")
 _PROJECT = tuple(
     os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), package) + os.sep
-    for package in ("cpg_suite", "baselines", "analysis", "benchmarks")
+    for package in ("cpg_suite", "baselines", "analysis", "benchmarks", "investigations")
 )
 
 
@@ -212,7 +212,13 @@ def help_text(doc: str | None = None) -> str:
     it (absl's own are under --helpfull), one line each with its default (`flag_default`)."""
     lines = [_usage(doc), "", "flags (defaults in brackets; --helpfull lists absl's too):"]
     for module, defined in sorted(flags.FLAGS.flags_by_module_dict().items()):
-        dotted = module.split(".")[0] in ("cpg_suite", "baselines", "analysis", "benchmarks")
+        dotted = module.split(".")[0] in (
+            "cpg_suite",
+            "baselines",
+            "analysis",
+            "benchmarks",
+            "investigations",
+        )
         if not (dotted or os.path.abspath(module).startswith(_PROJECT)):
             continue
         for flag in sorted(defined, key=lambda f: f.name):
