@@ -194,12 +194,12 @@ def profile(task_id: str, steps: int, repeats: int, clock: str) -> list[tuple[st
 
     timer = Clock(now_ns)
     saved = {name: getattr(mujoco, name) for name in MUJOCO_CALLS}
-    meter = recording.supply_currents
+    meter = recording.supply_sums
     task, physics = env.task, env.physics
     try:
         for name in MUJOCO_CALLS:
             setattr(mujoco, name, timer.wrap(name, saved[name]))
-        recording.supply_currents = timer.wrap("supply_currents", meter)
+        recording.supply_sums = timer.wrap("supply_sums", meter)
         for hook in TASK_HOOKS:
             setattr(task, hook, timer.wrap(hook, getattr(task, hook)))
         physics.step = timer.wrap("Physics.step", physics.step)
@@ -207,7 +207,7 @@ def profile(task_id: str, steps: int, repeats: int, clock: str) -> list[tuple[st
     finally:
         for name, fn in saved.items():
             setattr(mujoco, name, fn)
-        recording.supply_currents = meter
+        recording.supply_sums = meter
         for hook in TASK_HOOKS:
             delattr(task, hook)
         del physics.step
@@ -230,8 +230,8 @@ def profile(task_id: str, steps: int, repeats: int, clock: str) -> list[tuple[st
             "  ours: recording loop (Physics.step less MuJoCo)",
             own("Physics.step", "mj_step", "mj_step2", "mj_step1"),
         ),
-        ("  ours: supply meter: currents (NumPy, 8 steps x 20 servos)", own("supply_currents")),
-        ("  ours: supply meter: the monitor's update", own("after_step", "supply_currents")),
+        ("  ours: supply meter: power sums (NumPy, 8 steps x 20 servos)", own("supply_sums")),
+        ("  ours: supply meter: the monitor's update", own("after_step", "supply_sums")),
         ("  ours: reward less mj_forwardSkip", own("get_reward", "mj_forwardSkip")),
         ("  ours: observation assembly", own("get_observation")),
         ("  ours: action scaling (before_step)", own("before_step")),

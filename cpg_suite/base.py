@@ -115,15 +115,19 @@ def set_reward_colors(physics, unit_reward: float) -> None:
     colors[list(_REWARD_MATERIALS)] = blend * highlight + (1.0 - blend) * default
 
 
-def check_continuous_action(action, spec: specs.BoundedArray) -> np.ndarray:
+def check_continuous_action(
+    action, spec: specs.BoundedArray, out: np.ndarray | None = None
+) -> np.ndarray:
     """Validates a continuous action and clips it to the spec's bounds.
 
     Args:
       action: Array-like action.
       spec: The task's action spec.
+      out: A float64 array of `spec.shape` for the clipped action (None: a new one).
 
     Returns:
-      A float64 array of `spec.shape`, clipped to `[spec.minimum, spec.maximum]`.
+      A float64 array of `spec.shape`, clipped to `[spec.minimum, spec.maximum]` (`out`
+      when given).
 
     Raises:
       ValueError: If the shape differs from the spec's or a value is NaN or infinite.
@@ -145,7 +149,7 @@ def check_continuous_action(action, spec: specs.BoundedArray) -> np.ndarray:
     if not _all_finite(arr):
         raise ValueError(f"action contains NaN or infinite values: {arr!r}")
     # `np.clip` for finite values, without its Python wrapper's cost on the hot path.
-    return np.minimum(np.maximum(arr, spec.minimum), spec.maximum)
+    return np.minimum(np.maximum(arr, spec.minimum, out=out), spec.maximum, out=out)
 
 
 def _all_finite(arr: np.ndarray) -> bool:

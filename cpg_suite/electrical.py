@@ -171,6 +171,7 @@ class SupplyMeter:
         self._current = np.zeros((*shape, servos))
         self._power = np.zeros((*shape, servos))
         self._total = np.zeros(shape)
+        self._braking: np.ndarray | None = None  # `power_sums`' b·q̇ of every joint
         # The constants as 0-d arrays: NumPy converts a Python float on every call, which
         # costs more than the operation on these small arrays; the values are the same.
         self._constants = tuple(
@@ -202,6 +203,58 @@ class SupplyMeter:
         total = np.add.reduce(power, axis=-1, out=self._total)  # `np.sum`'s reduction
         np.divide(total, supply_voltage, out=total)
         return np.add(total, idle, out=total)
+
+    def power_sums(
+        self, force: np.ndarray, qvel: np.ndarray, dof_damping: np.ndarray, servo_index: np.ndarray
+    ) -> np.ndarray:
+        """Σ max(0, P) over the servos after each step: `supply_current` before its division
+        by the supply voltage and its idle draw (`currents` or `SupplyMonitor.update_sums`
+        add those), from every joint's velocity, in fewer NumPy calls than `__call__`.
+
+        The same operations on the same numbers in the same order, so the same bits: the
+        back-EMF torque b·q̇ of every joint (IEEE products commute: `damping * velocity`'s
+        bits), taken at the servos' joints, then as `__call__` (`tests/test_electrical.py`).
+        A buffer the next call overwrites.
+
+        Args:
+          force: (*steps, servos) actuator forces, N·m, in the model's actuator order.
+          qvel: (*steps, nv) every joint's velocity after each step, rad/s.
+          dof_damping: (nv,) every joint's damping, N·m·s/rad (the model's `dof_damping`),
+            or broadcastable to `qvel` ((robots, 1, nv) for robots × steps).
+          servo_index: The servos' entries of `qvel.ravel()`, row by row (`servo_index`
+            of the steps of all leading axes).
+        """
+        torque_constant, volts_per_newton_metre, zero, _, _ = self._constants
+        braking = self._braking
+        if braking is None or braking.shape != qvel.shape:
+            braking = self._braking = np.empty(qvel.shape)
+        np.multiply(qvel, dof_damping, out=braking)
+        current = self._current
+        braking.reshape(-1).take(servo_index, None, current.reshape(-1), "wrap")
+        np.subtract(force, current, out=current)
+        np.divide(current, torque_constant, out=current)  # `motor_current`
+        power = np.multiply(force, volts_per_newton_metre, out=self._power)
+        np.multiply(power, current, out=power)  # `input_power`
+        np.maximum(power, zero, out=power)
+        return np.add.reduce(power, axis=-1, out=self._total)  # `np.sum`'s reduction
+
+    def currents(self, sums: np.ndarray) -> np.ndarray:
+        """The supply currents, A, from `power_sums`' sums (in place)."""
+        _, _, _, supply_voltage, idle = self._constants
+        np.divide(sums, supply_voltage, out=sums)
+        return np.add(sums, idle, out=sums)
+
+
+def servo_index(steps: int, servo_dofs: np.ndarray, nv: int) -> np.ndarray:
+    """`SupplyMeter.power_sums`' index: the servos' joints' entries of a (steps, nv) array's
+    `ravel()`, row by row.
+
+    Args:
+      steps: Physics steps (rows).
+      servo_dofs: (servos,) each servo's joint address in `qvel`, in actuator order.
+      nv: Joint velocities per step.
+    """
+    return (np.arange(steps)[:, None] * nv + np.asarray(servo_dofs)[None, :]).reshape(-1)
 
 
 class SupplyMonitor:
@@ -246,22 +299,47 @@ class SupplyMonitor:
           The 1-based index (among these n) of the first step whose window mean exceeds the
           limit, or 0. After a brown-out the monitor keeps measuring but reports no other.
         """
-        values = np.asarray(currents, dtype=np.float64).tolist()
+        return self._add(np.asarray(currents, dtype=np.float64).tolist())
+
+    def update_sums(self, sums: np.ndarray) -> int:
+        """`update` with the currents' `SupplyMeter.power_sums` (Σ max(0, P) per step):
+        each current is `sum / SUPPLY_VOLTAGE + IDLE_CURRENT` in Python floats, the IEEE
+        operations `supply_current` takes, so the same bits.
+
+        Args:
+          sums: (n,) float64 sums of the next n physics steps, W.
+
+        Returns:
+          As `update`.
+        """
+        return self._add([s / SUPPLY_VOLTAGE + IDLE_CURRENT for s in sums.tolist()])
+
+    def _add(self, values: list[float]) -> int:
+        """`update` of Python floats."""
         total, worst, k = self.total, self.worst, self.steps
         limit = self.limit.current if self.enforce and not self.browned_out else math.inf
         ring, w, first = self._ring, self.window, 0
-        for i, current in enumerate(values):
-            total = total + current
-            if w is None:
-                mean = total / (k + i + 1)
-            else:
-                position = (k + i) % w  # holds T_{k+i+1−w}
+        if w is None:
+            for i, current in enumerate(values, 1):
+                total = total + current
+                mean = total / (k + i)
+                if mean > worst:
+                    worst = mean
+                if mean > limit and not first:
+                    first = i
+        else:
+            position = k % w  # ring[position] holds T_{k+i−w} at the i-th value
+            for i, current in enumerate(values, 1):
+                total = total + current
                 mean = (total - ring[position]) / w
                 ring[position] = total
-            if mean > worst:
-                worst = mean
-            if mean > limit and not first:
-                first = i + 1
+                position += 1
+                if position == w:
+                    position = 0
+                if mean > worst:
+                    worst = mean
+                if mean > limit and not first:
+                    first = i
         if first:
             self.browned_out = k + first
         self.total, self.worst, self.steps = total, worst, k + len(values)

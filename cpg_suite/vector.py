@@ -125,8 +125,11 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         for i, env in enumerate(self.envs):
             darwin_recording.record_steps_into(env.physics, self._step_force[i], self._step_qvel[i])
         self._servo_dofs = first.physics.servo_dofs()
-        self._damping = np.zeros((self.num_envs, 1, len(self._servo_dofs)))  # at each reset
+        self._dof_damping = np.zeros((self.num_envs, 1, model.nv))  # at each reset
         self._meter = electrical.SupplyMeter((self.num_envs, self.n_sub), len(self._servo_dofs))
+        self._servo_index = electrical.servo_index(
+            self.num_envs * self.n_sub, self._servo_dofs, model.nv
+        )
         self._currents: np.ndarray | None = None  # the last control step's (the meter's buffer)
         self.step_limit = int(round(first._step_limit)) if np.isfinite(first._step_limit) else None
         self.physics_steps = 0  # physics steps simulated so far, all sub-environments
@@ -241,7 +244,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             env.task.reseed(seed)
         env.reset()
         self._steps[i], self._done[i] = 0, False
-        self._damping[i, 0] = env.physics.servo_damping()  # the episode's drawn damping
+        self._dof_damping[i, 0] = env.physics.model.dof_damping  # the episode's drawn damping
         self._read(i)
         self._x[i] = self._torso_pos[i, 0]
 
@@ -292,8 +295,11 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         """The supply currents of this control step's physics steps, for every robot at
         once (`electrical.SupplyMeter`: each robot's the same bits as its own task's
         `darwin_recording.supply_currents`), into the tasks' monitors of the robots `stepped`."""
-        velocity = np.take(self._step_qvel, self._servo_dofs, axis=2)
-        currents = self._meter(self._step_force, velocity, self._damping)
+        meter = self._meter
+        sums = meter.power_sums(
+            self._step_force, self._step_qvel, self._dof_damping, self._servo_index
+        )
+        currents = meter.currents(sums)
         for i in stepped:
             self.envs[i].task.supply.update(currents[i])
         self._currents = currents

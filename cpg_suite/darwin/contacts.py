@@ -16,6 +16,7 @@ import numpy as np
 from cpg_suite._headless import mujoco
 
 STANCE_FRACTION = 0.05  # of body weight: a foot carrying more is a stance foot.
+_VELOCITY_STAGE = mj.mjtStage.mjSTAGE_VEL
 
 
 def foot_loads(physics: mujoco.Physics) -> tuple[list[float], list[list[float]]]:
@@ -39,8 +40,8 @@ def foot_loads(physics: mujoco.Physics) -> tuple[list[float], list[list[float]]]
       `(force, weighted)`: the (left, right) normal forces, N, and their force-weighted
       sums of contact positions, N·m, as Python lists.
     """
-    data = physics.data.ptr
-    mj.mj_forwardSkip(physics.model.ptr, data, mj.mjtStage.mjSTAGE_VEL, 1)
+    model, data = physics._pointers
+    mj.mj_forwardSkip(model, data, _VELOCITY_STAGE, 1)
     force = [0.0, 0.0]
     weighted = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
     if data.ncon:
@@ -97,7 +98,7 @@ def cop_offsets(physics: mujoco.Physics) -> tuple[np.ndarray, np.ndarray]:
 def _cop_offsets(physics: mujoco.Physics) -> tuple[list[float], list[bool]]:
     """`cop_offsets` as Python lists (the balance reward's hot path)."""
     force, weighted = foot_loads(physics)
-    soles = physics.data.site_xpos[physics._soles].tolist()
+    soles = physics._sole_xpos[physics._sole_rows].tolist()
     threshold = STANCE_FRACTION * physics._weight
     distance, stance = [math.nan, math.nan], [False, False]
     for foot in (0, 1):

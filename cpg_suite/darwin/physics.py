@@ -57,6 +57,7 @@ class Physics(mujoco.Physics):
         self._feet, self._floor = ids(model, FOOT_GEOMS, "geom"), model.name2id(FLOOR_GEOM, "geom")
         self._foot_index = {int(self._feet[0]): 0, int(self._feet[1]): 1}
         self._soles = ids(model, SOLE_SITES, "site")
+        self._sole_xpos, self._sole_rows = state.site_xpos, _span(self._soles)  # `contacts`'
         self._tiles = robot.tile_geoms(model)
         self._sensors = robot.sensor_slices(model)  # `sensor_slices`
         self._leg_range = model.jnt_range[legs]
@@ -64,6 +65,18 @@ class Physics(mujoco.Physics):
         self._leg_span = self._leg_range[:, 1] - self._leg_range[:, 0]
         self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
         self._recording = recording.Recording(self)  # what `step` records
+        # `set_leg_action`'s and `observation`'s plans: slices where the addresses run on
+        # (basic slicing: cheaper than an index array), else the addresses.
+        self._leg_ctrl = self._ctrl[_span(self._leg_act)]  # a view: `set_leg_action` writes it
+        self._action_scratch = np.zeros(len(self._leg_act))
+        self._obs_leg_qpos, self._obs_leg_dof = _span(self._leg_qpos), _span(self._leg_dof)
+        parts = ("torso_orientation", "gyro", "accelerometer", "foot_touch")
+        start = min(self._sensors[p].start for p in parts)
+        stop = max(self._sensors[p].stop for p in parts)
+        self._obs_sensors = slice(start, stop)
+        self._obs_parts = tuple(
+            slice(self._sensors[p].start - start, self._sensors[p].stop - start) for p in parts
+        )
 
     def step(self, nstep: int = 1) -> None:
         """dm_control's step (legacy stepping: `mj_step2` finishes the step whose `mj_step1`
@@ -145,6 +158,15 @@ class Physics(mujoco.Physics):
         """Normalized action in [−1, 1] -> leg joint angles, rad."""
         return self._leg_low + (np.asarray(action) + _ONE) * _HALF * self._leg_span
 
+    def set_leg_action(self, action: np.ndarray) -> None:
+        """`set_leg_targets(action_to_targets(action))` for a float64 (12,) action in
+        [−1, 1]: the same operations in the same order (the same bits), written into
+        `data.ctrl` without temporaries (the tasks' hot path)."""
+        t = np.add(action, _ONE, out=self._action_scratch)
+        np.multiply(t, _HALF, out=t)
+        np.multiply(t, self._leg_span, out=t)
+        np.add(self._leg_low, t, out=self._leg_ctrl)
+
     def controls_for(self, leg_targets: np.ndarray) -> np.ndarray:
         """Actuator controls for leg servo targets, with the arms and head held in `ARM_POSE`.
 
@@ -205,6 +227,27 @@ class Physics(mujoco.Physics):
         upright = (w * w - x * x - y * y + qz * qz) / (w * w + x * x + y * y + qz * qz)
         return z < FALL_HEIGHT or upright < FALL_TILT_COS
 
+    def observation(self) -> tuple[np.ndarray, ...]:
+        """The tasks' observation (`tasks.OBSERVATION_KEYS` order): the values of
+        `leg_joint_angles`, `leg_joint_velocities`, `torso_orientation`, `[torso_height]`,
+        `torso_velocity`, `gyro`, `accelerometer` and `foot_touch`, each its own array (views
+        of four fresh copies: the joint angles, all joint velocities, the sensors' span and
+        the torso's height), cheaper than the eight accessors."""
+        qvel = self._qvel.copy()
+        sensors = self._sensordata[self._obs_sensors].copy()
+        orientation, gyro, accelerometer, touch = self._obs_parts
+        r = self._root_dof
+        return (
+            self._qpos[self._obs_leg_qpos].copy(),
+            qvel[self._obs_leg_dof],
+            sensors[orientation],
+            self._xpos[self._torso, 2:3].copy(),
+            qvel[r : r + 3],
+            sensors[gyro],
+            sensors[accelerometer],
+            sensors[touch],
+        )
+
     # Sensors.
     def sensor_slices(self) -> dict[str, slice]:
         """Where the sensor accessors' readings lie in `data.sensordata` (for many robots)."""
@@ -234,3 +277,11 @@ class Physics(mujoco.Physics):
     def sole_centres(self) -> np.ndarray:
         """(2, 3) centres of the (left, right) soles in the world, m."""
         return self.data.site_xpos[self._soles]
+
+
+def _span(addresses: np.ndarray) -> slice | np.ndarray:
+    """A slice for addresses that run on by one (basic slicing: a view), else the addresses."""
+    a = np.asarray(addresses)
+    if len(a) and np.array_equal(a, np.arange(a[0], a[0] + len(a))):
+        return slice(int(a[0]), int(a[0]) + len(a))
+    return a.copy()

@@ -33,7 +33,8 @@ class Recording:
       qvel: (steps, nv) joint velocities after each step, rad/s.
       rows: `(force[i], qvel[i])` views, one per step.
       sensors: (steps, nsensordata) sensor readings after each step (`sensors=True`).
-      actuator_force, qvel_now, sensordata: Views of the physics's `data` they copy.
+      actuator_force, qvel_now, sensordata: Views of the physics's `data` they copy (the
+        first two memoryviews, as `rows`: assigning through one costs less).
     """
 
     def __init__(self, physics: mujoco.Physics):
@@ -42,13 +43,15 @@ class Recording:
         """
         model, data = physics.model.ptr, physics.data.ptr
         self.pointers = (model, data)  # what `mj_step` takes
-        self.actuator_force, self.qvel_now = data.actuator_force, data.qvel
+        self.actuator_force, self.qvel_now = memoryview(data.actuator_force), memoryview(data.qvel)
         self.sensordata, self.nsensordata = data.sensordata, model.nsensordata
         self.servo_dofs = physics.servo_dofs()  # the joint each servo turns, actuator order
         self.slices = physics.sensor_slices()
         self.record_into(np.zeros((0, model.nu)), np.zeros((0, model.nv)))
-        self.velocity = np.zeros((0, model.nu))  # the servos' part of `qvel`
-        self.meter: electrical.SupplyMeter | None = None  # `supply_currents`' buffers
+        self.dof_damping = model.dof_damping  # a view: the tiers draw it per episode
+        self.meter: electrical.SupplyMeter | None = None  # `supply_sums`' buffers
+        self.meter_shape: tuple[int, ...] = ()  # the `qvel` shape they are for
+        self.servo_index = np.zeros(0, dtype=np.intp)  # `SupplyMeter.power_sums`' index
 
     def record_into(self, force: np.ndarray, qvel: np.ndarray) -> None:
         """Records into these arrays from now on (through a view of each of their rows),
@@ -59,7 +62,8 @@ class Recording:
           qvel: (steps, nv) array for the joint velocities.
         """
         self.force, self.qvel = force, qvel
-        self.rows = list(zip(force, qvel))
+        # Memoryviews: assigning a row through one costs less than NumPy's `row[...] =`.
+        self.rows = list(zip(map(memoryview, force), map(memoryview, qvel)))
         self.sensors = np.zeros((len(force), self.nsensordata))
 
 
@@ -88,16 +92,24 @@ def substeps(
     if len(r.force) != nstep:
         r.record_into(np.zeros((nstep, model.nu)), np.zeros((nstep, model.nv)))
     records = []
-    readings = r.sensors if sensors else None
     actuator_force, velocity, sensordata = r.actuator_force, r.qvel_now, r.sensordata
-    step = mj.mj_step
-    for i, (force_row, qvel_row) in enumerate(r.rows):
-        if finish and i == 0:
-            mj.mj_step2(model, data)
-        else:
+    step, first = mj.mj_step, mj.mj_step2 if finish else mj.mj_step
+    if nstep and not sensors and record is None:  # the tasks' hot path: nothing else
+        rows = iter(r.rows)
+        force_row, qvel_row = next(rows)
+        first(model, data)
+        force_row[:] = actuator_force  # into views made once: cheaper than `force[i]`
+        qvel_row[:] = velocity
+        for force_row, qvel_row in rows:
             step(model, data)
-        force_row[...] = actuator_force  # into views made once: cheaper than `force[i]`
-        qvel_row[...] = velocity
+            force_row[:] = actuator_force
+            qvel_row[:] = velocity
+        return records
+    readings = r.sensors if sensors else None
+    for i, (force_row, qvel_row) in enumerate(r.rows):
+        (step if i else first)(model, data)
+        force_row[:] = actuator_force
+        qvel_row[:] = velocity
         if readings is not None:
             readings[i] = sensordata
         if record is not None:
@@ -158,16 +170,33 @@ def supply_currents(physics: mujoco.Physics, copy: bool = True) -> np.ndarray:
 
     Args:
       physics: A `darwin.Physics`.
-      copy: False: the meter's buffer, which the next call overwrites (the tasks' hot path).
+      copy: False: the meter's buffer, which the next call overwrites.
 
     Returns:
       (n,) supply currents, A.
     """
     r = physics._recording
-    force, qvel = r.force, r.qvel
-    if r.meter is None or len(r.velocity) != len(force):
-        r.meter = electrical.SupplyMeter(len(force), len(r.servo_dofs))
-        r.velocity = np.zeros_like(force)
-    velocity = np.take(qvel, r.servo_dofs, axis=1, out=r.velocity)
-    currents = r.meter(force, velocity, physics.servo_damping())
+    currents = r.meter.currents(supply_sums(physics))
     return currents.copy() if copy else currents
+
+
+def supply_sums(physics: mujoco.Physics) -> np.ndarray:
+    """Σ max(0, P) over the servos after each physics step of the last `step`, W: the supply
+    currents before their division by the supply voltage and the idle draw
+    (`electrical.SupplyMeter.power_sums`; the tasks' hot path adds them to their monitor
+    with `electrical.SupplyMonitor.update_sums`). The meter's buffer, which the next call
+    overwrites.
+
+    Args:
+      physics: A `darwin.Physics`.
+
+    Returns:
+      (n,) sums, W.
+    """
+    r = physics._recording
+    force, qvel = r.force, r.qvel
+    if r.meter is None or r.meter_shape != qvel.shape:
+        r.meter = electrical.SupplyMeter(len(force), len(r.servo_dofs))
+        r.meter_shape = qvel.shape
+        r.servo_index = electrical.servo_index(len(force), r.servo_dofs, qvel.shape[1])
+    return r.meter.power_sums(force, qvel, r.dof_damping, r.servo_index)

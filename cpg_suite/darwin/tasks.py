@@ -262,6 +262,7 @@ class CPGTask(base.Task):
         self.objective, self.posture = objective, posture
         self.init_noise = float(init_noise)
         self._action_spec = specs.BoundedArray((12,), np.float64, -1.0, 1.0, name="leg_targets")
+        self._action = np.zeros(12)  # the clipped action (`before_step`'s buffer)
         self.randomization, self.pushes, self.terrain = randomization, pushes, terrain
         self.supply_limit = supply
         self.supply: electrical.SupplyMonitor | None = None  # this episode's supply current
@@ -310,8 +311,8 @@ class CPGTask(base.Task):
         return perturbations.push_forces(self.push_schedule, n_steps)
 
     def before_step(self, action, physics: Physics) -> None:
-        action = base.check_continuous_action(action, self._action_spec)
-        physics.set_leg_targets(physics.action_to_targets(action))
+        action = base.check_continuous_action(action, self._action_spec, self._action)
+        physics.set_leg_action(action)  # `set_leg_targets(action_to_targets(action))`
         if self.pushes is not None:
             step = int(round(physics.data.time / CONTROL_TIMESTEP))  # 0-based control step
             force = perturbations.push_force(self.push_schedule, step)
@@ -320,16 +321,8 @@ class CPGTask(base.Task):
 
     def get_observation(self, physics: Physics) -> collections.OrderedDict:
         """Leg joint angles and velocities, torso orientation, height and velocity, IMU, touch."""
-        obs = collections.OrderedDict()
-        obs["joint_angles"] = physics.leg_joint_angles()
-        obs["joint_velocities"] = physics.leg_joint_velocities()
-        obs["torso_orientation"] = physics.torso_orientation()
-        obs["torso_height"] = np.array([physics.torso_height()])
-        obs["torso_velocity"] = physics.torso_velocity()
-        obs["gyro"] = physics.gyro()
-        obs["accelerometer"] = physics.accelerometer()
-        obs["foot_touch"] = physics.foot_touch()
-        return obs
+        # The accessors' values (`Physics.observation`: one read for all eight).
+        return collections.OrderedDict(zip(OBSERVATION_KEYS, physics.observation()))
 
     def get_reward(self, physics: Physics) -> float:
         if self.objective == "walk":
@@ -337,8 +330,9 @@ class CPGTask(base.Task):
         return contacts.balance_reward(physics)
 
     def after_step(self, physics: Physics) -> None:
-        """Adds the step's supply currents to the episode's (`electrical.SupplyMonitor`)."""
-        self.supply.update(recording.supply_currents(physics, copy=False))
+        """Adds the step's supply currents to the episode's (`electrical.SupplyMonitor`; as
+        their sums before the idle draw, `recording.supply_sums`: the same bits)."""
+        self.supply.update_sums(recording.supply_sums(physics))
         super().after_step(physics)
 
     def get_termination(self, physics: Physics):
