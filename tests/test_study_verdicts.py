@@ -235,3 +235,40 @@ def test_the_scaled_theta_rules(tmp_path):
     assert chapter5.nac_4b(flat).verdict == v.FAILS
     assert chapter5.nac_5(flat).verdict == v.FAILS  # never worse by a fall
     assert chapter5.nac_6(flat).verdict == v.HOLDS
+
+
+def test_stride_steps_is_the_cpg_cycle():
+    """CPG-7's stride in control steps (analysis.study.chapter6.STRIDE_STEPS) is the CPG's
+    2π/ω over the DARwIn-OP's control step."""
+    import math
+
+    from cpg_suite import cpg
+    from cpg_suite.darwin.tasks import CONTROL_TIMESTEP
+
+    assert chapter6.STRIDE_STEPS == pytest.approx(
+        2 * math.pi / cpg.CPGConfig().omega / CONTROL_TIMESTEP
+    )
+
+
+def test_wholes_say_the_rule_combine_applies():
+    """Every whole claim's criterion in the catalog is verdicts.COMBINED (the rule
+    verdicts.combine applies), and fails beside inconclusive parts combine to fails."""
+    from analysis.study import catalog
+
+    rows = catalog.load()
+    wholes = set(catalog.parts_of(rows))
+    for r in rows:
+        if r["id"] in wholes:
+            assert r["criterion"].startswith(v.COMBINED), r["id"]
+    fails, unsure = v.Verdict(v.FAILS, ""), v.Verdict(v.INCONCLUSIVE, "")
+    assert v.combine([fails, unsure]) == v.FAILS
+    assert v.combine_as_first_written([fails, unsure]) == v.INCONCLUSIVE
+    holds, untestable = v.Verdict(v.HOLDS, ""), v.untestable("why")
+    assert v.in_part({"a": holds, "b": untestable}) == "holds in part (b not testable here)"
+
+
+def test_one_run_event_bound():
+    """A one-run event seen in 0 of 5 seeds is inconclusive, its rate bounded below 45 %."""
+    found = v.one_run([False] * 5, "x")
+    assert found.verdict == v.INCONCLUSIVE and "45 %" in found.why
+    assert v.one_run([True] * 4 + [False], "x").verdict == v.HOLDS

@@ -77,18 +77,26 @@ def judge(rows: list[dict], ev: Evidence) -> list[dict]:
     done: dict[str, v.Verdict] = {}
     for row in rows:
         done[row["id"]] = _judge_one(row, ev)
+    first: dict[str, str] = {}
     for whole, parts in catalog.parts_of(rows).items():
         if whole not in RULES:
-            verdict = v.combine([done[p] for p in parts])
+            found = [done[p] for p in parts]
+            verdict = v.combine(found)
             summary = ", ".join(f"{p}: {done[p].verdict}" for p in parts)
-            done[whole] = v.Verdict(verdict, summary, _why_of_parts(parts, done))
+            why = _why_of_parts(parts, done)
+            partial = v.in_part({p: done[p] for p in parts})
+            if partial:
+                why = f"{partial}; {why}" if why else partial
+            done[whole] = v.Verdict(verdict, summary, why)
+            if v.combine_as_first_written(found) != verdict:  # the rule before 2026-11-27
+                first[whole] = v.combine_as_first_written(found)
     return [
         {
             **{k: row[k] for k in CLAIM_FIELDS if k in row},
             "verdict": done[row["id"]].verdict,
             "evidence": done[row["id"]].evidence,
             "why": done[row["id"]].why,
-            "first_verdict": revisions.text(ev, row["id"]),
+            "first_verdict": first.get(row["id"]) or revisions.text(ev, row["id"]),
             "rerun": RERUN_OF_CLAIM.get(row["id"], RERUN[row["evidence"]]),
         }
         for row in rows

@@ -304,16 +304,35 @@ def cpg_1a(ev: Evidence) -> v.Verdict:
     return v.majority([not f for f in fell], "hand-tuned gait, 1000 steps: no fall")
 
 
-@rule("CPG-1b")
-def cpg_1b(ev: Evidence) -> v.Verdict:
+def _smallest_d(ev: Evidence) -> tuple[float, dict[int, float]]:
     hand = chapter6.hand_tuned_trial(ev)["distance_m"]
     by_seed: dict[int, float] = {}
     for setting in chapter6.TABLE:
         for r in ev.cem(setting):
             by_seed[r.seed] = min(by_seed.get(r.seed, np.inf), chapter6.best(r))
-    flags = [hand <= 0 or hand <= d / 5 for d in by_seed.values()]
+    return hand, by_seed
+
+
+@rule("CPG-1b")
+def cpg_1b(ev: Evidence) -> v.Verdict:
+    """Nearly walks in place: |D_hand| at most a fifth of each seed's smallest D (revised
+    after the second reading of 2026-11-27, where a backward D_hand met it by construction)."""
+    hand, by_seed = _smallest_d(ev)
+    flags = [abs(hand) <= d / 5 for d in by_seed.values()]
     smallest = ", ".join(f"{d:.3f}" for d in by_seed.values())
-    return v.majority(flags, f"D_hand {hand:+.4f} m against each seed's smallest D ({smallest})")
+    way = f"{abs(hand) * 100:.2f} cm {'backwards' if hand < 0 else 'forwards'}"
+    return v.majority(
+        flags,
+        f"the hand-tuned gait walks {way} in 1000 steps; |D_hand| ≤ D/5 against each seed's "
+        f"smallest D ({smallest} m)",
+    )
+
+
+def cpg_1b_signed(ev: Evidence) -> v.Verdict:
+    """CPG-1b as first written: D_hand ≤ D/5, a backward D_hand meeting it (`revisions`)."""
+    hand, by_seed = _smallest_d(ev)
+    flags = [hand <= 0 or hand <= d / 5 for d in by_seed.values()]
+    return v.majority(flags, f"D_hand {hand:+.4f} m ≤ smallest D / 5")
 
 
 @rule("CPG-2")

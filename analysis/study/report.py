@@ -71,6 +71,8 @@ def _claims_lines(claims: list[dict]) -> list[str]:
         for c in rows:
             name = f"↳ {c['id']}" if c["parent"] else f"**{c['id']}**"
             verdict = c["verdict"]
+            if c["why"].startswith(f"{verdict} in part ("):  # parts not testable here left out
+                verdict = c["why"].partition(";")[0]
             if c.get("first_verdict"):
                 verdict += f" (criterion as first written: {c['first_verdict']})"
             cells = (name, verdict, c["statement"], c["evidence"], c["why"])

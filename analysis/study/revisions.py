@@ -48,6 +48,93 @@ def text(ev: Evidence, claim_id: str) -> str:
     return f"{found.verdict}: {found.evidence}" if found.evidence else found.verdict
 
 
+# --- revised after the second reading's table (results/study/second_reading.csv, issue 53
+# deliverable 6), 2026-11-27 ---------------------------------------------------------------
+
+
+@first("CR-4a")
+def cr_4a(ev: Evidence) -> v.Verdict:
+    """Was: judged on the computed 0.005-step γ grid, not the grid the criterion names."""
+    return chapter4.cr_4a_fine(ev)
+
+
+@first("CR-11c")
+def cr_11c(ev: Evidence) -> v.Verdict:
+    """Was: the comparison with the Tokic policy, which walks backwards on our crawler."""
+    tokic_policy, _ = chapter4._tokic_on_crawler(ev)
+    return v.paired_greater(
+        chapter4._crawler_col(ev, "value_iteration", "displacement_m"),
+        tokic_policy,
+        "real-time VI − the Tokic table's policy",
+    )
+
+
+@first("PB-4d")
+def pb_4d(ev: Evidence) -> v.Verdict:
+    """Was: the share of tried states with every action tried, 20 − 100 bins."""
+    return v.paired_greater(
+        chapter4._col(ev, "bins20", "all_actions_tried_share"),
+        chapter4._col(ev, "bins100", "all_actions_tried_share"),
+        "all actions tried, 20 − 100 bins",
+    )
+
+
+@first("PB-5b")
+def pb_5b(ev: Evidence) -> v.Verdict:
+    """Was: rms θ of the last 5000 steps, falls and all."""
+    return chapter4.pb_5b_all_steps(ev)
+
+
+@first("PB-14b")
+def pb_14b(ev: Evidence) -> v.Verdict:
+    """Was: a 4-of-5 property of the setting."""
+    return chapter4.pb_14b_as_property(ev)
+
+
+@first("PB-16c")
+def pb_16c(ev: Evidence) -> v.Verdict:
+    """Was: the share of tried states with every action tried (visits not counted)."""
+    return chapter4._all_tried(ev)
+
+
+@first("CPG-1b")
+def cpg_1b(ev: Evidence) -> v.Verdict:
+    """Was: a backward hand-tuned distance met it."""
+    return chapter5.cpg_1b_signed(ev)
+
+
+def _same_target(key: str, label: str) -> v.Verdict:
+    def judge(ev: Evidence) -> v.Verdict:
+        worst = ev.computed("cpg")[key]
+        return v.Verdict(v.HOLDS if worst <= 1e-6 else v.FAILS, f"{label} {worst:.2e} ≤ 1e-6 rad?")
+
+    return judge
+
+
+# CPG-2 and CPG-6: changed after their runs from 1e-6 rad (the first reading, 5e854fa) to
+# half a servo step; the first criterion's verdict was never kept beside until now.
+FIRST["CPG-2"] = _same_target("phase_shift_rad", "max |right(t) − left(t + T/2)|")
+FIRST["CPG-6"] = _same_target("periodicity_rad", "max |z(t + T) − z(t)|")
+
+
+@first("CPG-7")
+def cpg_7(ev: Evidence) -> v.Verdict:
+    """Was: the intervals between left touchdowns, learned against hand-tuned."""
+    return chapter6._touchdown_intervals(ev)
+
+
+@first("CEM-19a")
+def cem_19a(ev: Evidence) -> v.Verdict:
+    """Was: a 4-of-5 property of the setting."""
+    return chapter6.cem_19a_as_property(ev)
+
+
+@first("CEM-24")
+def cem_24(ev: Evidence) -> v.Verdict:
+    """Was: at equal training trials (1000)."""
+    return chapter6.cem_24_equal_trials(ev)
+
+
 # --- revised after the second reading of 2026-11-27, this one (issue 53) -------------------
 
 

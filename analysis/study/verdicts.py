@@ -51,23 +51,34 @@ def untestable(reason: str) -> Verdict:
     return Verdict(UNTESTABLE, "", reason)
 
 
+# Values within this of 0 are 0: a mean of per-seed differences that are all 0 or of one
+# sign can land a bootstrap end at ±1e-15 by float rounding (CR-9a's +3.2e-15; the second
+# reading of 2026-11-27).
+ZERO = 1e-12
+
+
+def _snap(*values: float) -> tuple[float, ...]:
+    return tuple(0.0 if abs(x) < ZERO else float(x) for x in values)
+
+
 def mean_interval(values: Sequence[float]) -> tuple[float, float, float]:
-    """The mean of per-seed values and its bootstrap 95 % interval."""
+    """The mean of per-seed values and its bootstrap 95 % interval (within `ZERO` of 0: 0)."""
     x = np.asarray(values, dtype=np.float64)[:, None]
     low, high = aggregate.interval(x, aggregate.mean)
-    return float(x.mean()), low, high
+    return _snap(float(x.mean()), low, high)
 
 
 def difference_interval(a: Sequence[float], b: Sequence[float]) -> tuple[float, float, float]:
     """mean(a) − mean(b) over independent seeds and its bootstrap 95 % interval (a's and
-    b's seeds resampled independently, the generator seeded as `aggregate`'s)."""
+    b's seeds resampled independently, the generator seeded as `aggregate`'s; within `ZERO`
+    of 0: 0)."""
     x, y = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
     rng = np.random.default_rng(aggregate.SEED)
     diffs = np.empty(aggregate.RESAMPLES)
     for i in range(aggregate.RESAMPLES):
         diffs[i] = rng.choice(x, x.size).mean() - rng.choice(y, y.size).mean()
     low, high = np.percentile(diffs, [2.5, 97.5])
-    return float(x.mean() - y.mean()), float(low), float(high)
+    return _snap(float(x.mean() - y.mean()), float(low), float(high))
 
 
 def _above_zero(text: str, low: float, high: float) -> Verdict:
@@ -124,6 +135,43 @@ def majority(flags: Sequence[bool], label: str) -> Verdict:
     )
 
 
+def one_run(flags: Sequence[bool], label: str) -> Verdict:
+    """An event the thesis reports of its one run ("a quiet spell around iteration 12 000",
+    "the mean falls in round 3"), not of its setting: holds if at least 4 in 5 seeds show
+    it; else inconclusive, since seeds without it do not show that one run could not: the
+    95 % upper bound of its rate from k of n seeds is said (the second reading of
+    2026-11-27)."""
+    k, n = int(sum(bool(f) for f in flags)), len(flags)
+    text = f"{label}: {k} of {n} seeds"
+    if k >= 0.8 * n:
+        return Verdict(HOLDS, text)
+    bound = _rate_bound(k, n)
+    return Verdict(
+        INCONCLUSIVE,
+        text,
+        f"one run's event: {k} of {n} seeds put its rate below {bound * 100:.0f} % (95 %), "
+        "which the thesis' single run showing it does not contradict",
+    )
+
+
+def _rate_bound(k: int, n: int) -> float:
+    """The exact (Clopper-Pearson) one-sided 95 % upper bound of a rate seen k of n times."""
+    if k >= n:
+        return 1.0
+    lo, hi = k / n, 1.0
+    for _ in range(60):  # bisection on P(X ≤ k | rate) = 0.05
+        mid = (lo + hi) / 2
+        tail = sum(_binom(n, i) * mid**i * (1 - mid) ** (n - i) for i in range(k + 1))
+        lo, hi = (mid, hi) if tail > 0.05 else (lo, mid)
+    return hi
+
+
+def _binom(n: int, k: int) -> int:
+    from math import comb
+
+    return comb(n, k)
+
+
 def split(holds: Sequence[bool], fails: Sequence[bool], text: str, why: str) -> Verdict:
     """A claim judged seed by seed against two thresholds: holds if at least 4 in 5 seeds
     meet the claim's (`holds`), fails if at least 4 in 5 meet the opposite one (`fails`,
@@ -135,23 +183,55 @@ def split(holds: Sequence[bool], fails: Sequence[bool], text: str, why: str) -> 
     return Verdict(INCONCLUSIVE, text, "the seeds split")
 
 
+# The whole claims' criterion, as `combine` applies it (the catalog's wholes say it; revised
+# after the second reading of 2026-11-27, where their text said "holds if every part holds,
+# fails if every part fails, mixed otherwise" and a part that failed beside an inconclusive
+# one left the whole inconclusive).
+COMBINED = (
+    "from its parts, the parts not testable here left out (a whole that holds without them "
+    "holds in part, naming them): holds, fails or not reproduced here if every part does; "
+    "fails if some part fails and none holds (the others inconclusive or not reproduced "
+    "here); mixed if some parts hold and others fail or are not reproduced here; "
+    "inconclusive otherwise"
+)
+
+
 def combine(parts: Sequence[Verdict]) -> str:
-    """A compound claim's verdict from its parts' (the untestable parts left out): holds,
-    fails or not reproduced here if all agree; fails where some parts fail and the others
-    are not reproduced here (a failure in the thesis' setting decides); mixed if some hold
-    and others fail or are not reproduced here; inconclusive otherwise."""
+    """A compound claim's verdict from its parts' (`COMBINED`): the untestable parts left
+    out; holds, fails or not reproduced here if all agree; fails where some part fails and
+    none holds (a failure in the thesis' setting decides; the others are inconclusive or
+    not reproduced here); mixed if some hold and others fail or are not reproduced here;
+    inconclusive otherwise."""
     tested = {p.verdict for p in parts if p.verdict != UNTESTABLE}
     if not tested:
         return UNTESTABLE
     if len(tested) == 1 and tested <= {HOLDS, FAILS, NOT_REPRODUCED}:
         return next(iter(tested))
-    if tested == {FAILS, NOT_REPRODUCED}:
-        return FAILS
     if HOLDS in tested and tested & {FAILS, NOT_REPRODUCED}:
         return MIXED
     if MIXED in tested:
         return MIXED
+    if FAILS in tested:
+        return FAILS
     return INCONCLUSIVE
+
+
+def combine_as_first_written(parts: Sequence[Verdict]) -> str:
+    """`combine` before the second reading of 2026-11-27: a part that failed beside
+    inconclusive ones (and no part that held) left the whole inconclusive."""
+    tested = {p.verdict for p in parts if p.verdict != UNTESTABLE}
+    if FAILS in tested and not tested & {HOLDS, MIXED} and INCONCLUSIVE in tested:
+        return INCONCLUSIVE
+    return combine(parts)
+
+
+def in_part(parts: dict[str, Verdict]) -> str:
+    """'holds in part (X not testable here)' for a whole that holds with its untestable
+    parts left out, else ''."""
+    left = [k for k, p in parts.items() if p.verdict == UNTESTABLE]
+    if not left or combine(list(parts.values())) != HOLDS:
+        return ""
+    return f"{HOLDS} in part ({', '.join(left)} not testable here)"
 
 
 def all_of(parts: Sequence[Verdict]) -> str:

@@ -49,6 +49,7 @@ def define_flags() -> None:
 
 
 LAST = 5000  # Steps at the end of a run that must pass without a fall ("balanced").
+SPELL = 1000  # Steps without a fall that make a balance spell (rms θ inside them: PB-5b).
 BASE = {
     "task": "pole_balance",
     "algo": "q_learning",
@@ -99,6 +100,10 @@ CONFIGS = [
     _c("force0.5_short", long=False),
     _c("force4_short", long=False, force=4.0),
     _c("force4", force=4.0),  # Does learning still succeed with 4 N over 20000 steps?
+    # γ ≤ 0.3 and 20 angle bins at 4 N, the force seed L772 calls the original (PB-3, PB-5a:
+    # the second reading of 2026-11-27 asked whether 0.5 N is what their outcomes turn on).
+    *[_c(f"gamma{g:g}_force4", gamma=g, force=4.0) for g in (0.1, 0.3)],
+    _c("bins20_force4", bins="20", force=4.0),
     # ε (PB-16).
     *[_c(f"epsilon{e:g}", epsilon=str(e)) for e in (0.05, 0.1, 0.2)],
 ]
@@ -219,10 +224,11 @@ def _window_rms(angles: np.ndarray, start: int, stop: int, width: int = 1000) ->
 def _from_steps(run_dir, settings, episodes: pd.DataFrame, angles: np.ndarray, forces) -> dict:
     """Measures from the run's per-step files: the longest spell that ended in a fall, the
     zero-force action's share of the last 5000 steps, the rms angle early (steps
-    2500-5000) and late (15000-20000), the quietest 1000-step window in steps 8000-16000
-    against the median window of steps 5000-20000 and where it lies, and the share of the
-    states tried at all whose every action was tried (a tried action leaves a non-zero Q,
-    the rewards being negative)."""
+    2500-5000) and late (15000-20000), the rms angle inside balance spells (episodes of at
+    least `SPELL` steps, fallen or not) and their steps, the quietest 1000-step window in
+    steps 8000-16000 against the median window of steps 5000-20000 and where it lies, and
+    the share of the states tried at all whose every action was tried (a tried action
+    leaves a non-zero Q, the rewards being negative)."""
     fallen = episodes.loc[episodes["fell"] == 1, "length"]
     actions = np.load(os.path.join(run_dir, "actions.npy"))
     q = np.load(os.path.join(run_dir, "q_table.npy")).reshape(-1, len(forces))
@@ -240,6 +246,12 @@ def _from_steps(run_dir, settings, episodes: pd.DataFrame, angles: np.ndarray, f
         if any_tried.any()
         else float("nan"),
     }
+    spells = episodes[episodes["length"] >= SPELL]
+    inside = np.concatenate(
+        [angles[a:b] for a, b in zip(spells["start_step"], spells["end_step"])] or [angles[:0]]
+    )
+    out["spell_steps"] = int(inside.size)
+    out["rms_angle_spells"] = float(np.sqrt(np.mean(inside**2))) if inside.size else float("nan")
     if len(angles) >= 20000:
         quiet = _window_rms(angles, 8000, 16000)
         out["quietest_window_ratio"] = float(
