@@ -109,12 +109,29 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         self._layout(first.physics)
         self._models = [env.physics.model.ptr for env in self.envs]
         self._datas = [env.physics.data.ptr for env in self.envs]
+        # Each robot's views made once (cheaper than looking them up on every step): its
+        # leg controls, warning counts (`base.invalid_state`'s) and what `_read` copies.
+        self._leg_ctrls = [env.physics._leg_ctrl for env in self.envs]  # `set_leg_action`'s
+        self._warning_counts = [env.physics._warnings for env in self.envs]
+        self._invalid_warnings = np.array(base._INVALID_STATE_WARNINGS)
         # What the observations, rewards and fall tests read, per sub-environment.
         model = first.physics.model
         self._qpos = np.zeros((self.num_envs, model.nq))
         self._qvel = np.zeros((self.num_envs, model.nv))
         self._sensordata = np.zeros((self.num_envs, model.nsensordata))
         self._torso_pos = np.zeros((self.num_envs, 3))
+        self._reads = [
+            [
+                (memoryview(mine[i]), memoryview(theirs))
+                for mine, theirs in (
+                    (self._qpos, d.qpos),
+                    (self._qvel, d.qvel),
+                    (self._sensordata, d.sensordata),
+                    (self._torso_pos, d.xpos[self._torso]),
+                )
+            ]
+            for i, d in enumerate(self._datas)
+        ]
         self.n_sub = int(round(first.control_timestep() / first.physics.timestep()))
         # Every robot's servo forces and joint velocities after each physics step of the
         # control step, recorded by its physics into its row
@@ -321,28 +338,27 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         invalid-state test, `mj_step1`, and a copy of the state the observations read (the
         supply currents follow for all robots at once, `_add_supply`)."""
         flags = []
+        invalid, n_sub, step1 = self._invalid_warnings, self.n_sub, mujoco.mj_step1
         for i, targets, push in work:
             model, data = self._models[i], self._datas[i]
-            data.ctrl[self._leg_act] = targets
+            self._leg_ctrls[i][...] = targets  # `data.ctrl[leg actuators]`, a view
             if push is not None:
                 data.xfrc_applied[self._torso, :3] = push
-            base.clear_invalid_state_warnings(data)
-            env = self.envs[i]
-            darwin_recording.substeps(env.physics, self.n_sub, finish=True)  # forces recorded
-            bad = base.invalid_state(data)
+            counts = self._warning_counts[i]  # `base.clear_invalid_state_warnings`
+            counts[invalid] = 0
+            darwin_recording.substeps(self.envs[i].physics, n_sub, finish=True)  # recorded
+            bad = bool(counts[invalid].any())  # `base.invalid_state`
             if not bad:
-                mujoco.mj_step1(model, data)
-            self._read(i)
+                step1(model, data)
+            for mine, theirs in self._reads[i]:  # `_read`
+                mine[:] = theirs
             flags.append(bad)
         return flags
 
     def _read(self, i: int) -> None:
         """Copies the state sub-environment i's observation, reward and fall test read."""
-        data = self._datas[i]
-        self._qpos[i] = data.qpos
-        self._qvel[i] = data.qvel
-        self._sensordata[i] = data.sensordata
-        self._torso_pos[i] = data.xpos[self._torso]
+        for mine, theirs in self._reads[i]:
+            mine[:] = theirs
 
     def _observations(self) -> dict[str, np.ndarray]:
         """`CPGTask.get_observation` for every sub-environment, as (N, ...) arrays."""

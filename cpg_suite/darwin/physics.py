@@ -63,11 +63,15 @@ class Physics(mujoco.Physics):
         self._leg_range = model.jnt_range[legs]
         self._leg_low = self._leg_range[:, 0].copy()  # `action_to_targets`' constants
         self._leg_span = self._leg_range[:, 1] - self._leg_range[:, 0]
+        self._torso_push = state.xfrc_applied[self._torso, :3]  # a view: `tasks`' pushes
         self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
         self._recording = recording.Recording(self)  # what `step` records
         # `set_leg_action`'s and `observation`'s plans: slices where the addresses run on
         # (basic slicing: cheaper than an index array), else the addresses.
-        self._leg_ctrl = self._ctrl[_span(self._leg_act)]  # a view: `set_leg_action` writes it
+        legs = _span(self._leg_act)  # 0-11: `checks.check_model`
+        if not isinstance(legs, slice):
+            raise ValueError("expects the leg servos' actuators one after another")
+        self._leg_ctrl = self._ctrl[legs]  # a view: `set_leg_action` writes it
         self._action_scratch = np.zeros(len(self._leg_act))
         self._obs_leg_qpos, self._obs_leg_dof = _span(self._leg_qpos), _span(self._leg_dof)
         parts = ("torso_orientation", "gyro", "accelerometer", "foot_touch")

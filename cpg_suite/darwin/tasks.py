@@ -314,9 +314,9 @@ class CPGTask(base.Task):
         action = base.check_continuous_action(action, self._action_spec, self._action)
         physics.set_leg_action(action)  # `set_leg_targets(action_to_targets(action))`
         if self.pushes is not None:
-            step = int(round(physics.data.time / CONTROL_TIMESTEP))  # 0-based control step
+            step = int(round(physics._pointers[1].time / CONTROL_TIMESTEP))  # 0-based
             force = perturbations.push_force(self.push_schedule, step)
-            perturb.set_torso_push(physics, force)
+            physics._torso_push[...] = force  # `perturb.set_torso_push`, through a view
         self._x_before = physics.forward_position()
 
     def get_observation(self, physics: Physics) -> collections.OrderedDict:

@@ -1,0 +1,279 @@
+r"""Every hot path's ratio to a raw `mujoco.rollout` of the same physics, in one run.
+
+  python benchmarks/bench_hot_paths.py [--clock=cpu] [--repeats=3] [--steps=1000]
+      [--paths=env,vector,evaluator,score] [--threads=1]
+
+For each path, in one process, ours and the raw rollout timed back to back (best of
+`--repeats` each), as physics steps per second:
+  * `env.step` of every DARwIn-OP tier (`darwin_walk`, `darwin_balance`,
+    `darwin_walk_randomized`, `darwin_walk_push`, `darwin_walk_rough`), the hand-tuned
+    gait for `--steps` control steps (`bench_env`'s actions and controls),
+    against a 1-thread rollout of the same model, initial state and controls;
+  * the vector env (`cpg_suite.vector.DarwinVectorEnv`, `darwin_walk`, 8 robots,
+    `--threads`), the gait from 8 seeded starts (`bench_vector_env`'s), against a rollout
+    of the same states and controls with as many threads;
+  * the batched open-loop evaluator (`cpg_suite.evaluation.open_loop.BatchEvaluator`,
+    `--threads`), 8 candidates around the hand-tuned gait (some fall, as in a CEM round:
+    the evaluator stops them, the rollout does not, so steps per second are compared);
+  * scoring (`cpg_suite.protocol.score.score_gait`, the four tiers × 2 test seeds,
+    `--threads`) against a rollout of the nominal gait.
+ratio = ours / raw in physics steps per second: 1 is free, the goal is ≥ 0.8 (issue 55),
+the floor the slow test holds is 0.75 (`tests/test_hot_paths.py`). `--clock=cpu` times
+the process's CPU time (steadier on a shared machine; with threads it counts every
+thread's time, on both sides alike). `ratios` is what the test calls.
+"""
+
+from __future__ import annotations
+
+if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
+    from cpg_suite import cli
+
+    cli.without_rendering()
+
+import dataclasses
+import time
+
+import mujoco
+import numpy as np
+from absl import flags
+from mujoco import rollout
+
+import cpg_suite
+from cpg_suite import cli, cpg, protocol
+
+CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
+DARWIN_TIERS = (
+    "darwin_walk",
+    "darwin_balance",
+    "darwin_walk_randomized",
+    "darwin_walk_push",
+    "darwin_walk_rough",
+)
+PATHS = ("env", "vector", "evaluator", "score")
+GOAL, FLOOR = 0.8, 0.75
+_ROBOTS, _VECTOR_SEED = 8, 100
+
+
+def _best(fn, repeats: int, now) -> float:
+    """Best-of-`repeats` seconds of `fn()` on the clock `now`."""
+    best = np.inf
+    for _ in range(repeats):
+        start = now()
+        fn()
+        best = min(best, now() - start)
+    return best
+
+
+def _rollout(model, datas, states, controls, threads: int, repeats: int, now) -> float:
+    """Best-of-`repeats` seconds of one `mujoco.rollout` call (`threads` > 1: a pool)."""
+    with rollout.Rollout(nthread=threads if threads > 1 else 0) as runner:
+        data = datas if threads > 1 else datas[0]
+        return _best(lambda: runner.rollout(model, data, states, controls), repeats, now)
+
+
+def env_step(task_id: str, steps: int, repeats: int, now) -> tuple[float, float]:
+    """(ours, raw) physics steps per second of `env.step` of a task and its rollout."""
+    env = cpg_suite.load(task_id, task_kwargs={"random": 0})
+    physics = env.physics
+    episode = cpg.trajectories(cpg.amplitudes_from("hand_tuned"), 1000, env.control_timestep())
+    actions = np.resize(physics.targets_to_action(episode[0]), (steps, 12))  # `bench_env`'s
+    n_sub = int(round(env.control_timestep() / physics.model.opt.timestep))
+
+    def run():
+        env.reset()
+        for a in actions:
+            if env.step(a).last():
+                env.reset()  # (not with the gait: it walks the whole time)
+
+    ours = _best(run, repeats, now)
+    # The controls the task set, from its initial state (`bench_env.time_raw`'s).
+    env.reset()
+    model = physics.model.ptr
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    initial = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, physics.data.ptr, initial, spec)
+    ctrls = np.empty((len(actions), model.nu))
+    for t, a in enumerate(actions):
+        if env.step(a).last():
+            env.reset()
+        ctrls[t] = physics.data.ctrl
+    controls = np.repeat(ctrls, n_sub, axis=0)[None]
+    raw = _rollout(model, [mujoco.MjData(model)], initial[None], controls, 1, repeats, now)
+    return steps * n_sub / ours, steps * n_sub / raw
+
+
+def vector_env(steps: int, threads: int, repeats: int, now) -> tuple[float, float]:
+    """(ours, raw) physics steps per second of the vector env and its rollout."""
+    from cpg_suite import vector
+
+    envs = vector.DarwinVectorEnv("darwin_walk", _ROBOTS, threads=threads)
+    try:
+        first = envs.envs[0]
+        targets = cpg.trajectories(
+            cpg.amplitudes_from("hand_tuned"), steps, first.control_timestep()
+        )[0]
+        actions = np.repeat(first.physics.targets_to_action(targets)[:, None], _ROBOTS, axis=1)
+        ctrls = first.physics.controls_for(targets)
+        counted = []
+
+        def run():
+            envs.reset(seed=_VECTOR_SEED)
+            before = envs.physics_steps
+            for a in actions:
+                envs.step(a)
+            counted.append(envs.physics_steps - before)
+
+        ours = _best(run, repeats, now)
+        envs.reset(seed=_VECTOR_SEED)
+        models = [e.physics.model.ptr for e in envs.envs]
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        states = np.empty((_ROBOTS, mujoco.mj_stateSize(models[0], spec)))
+        for i, e in enumerate(envs.envs):
+            mujoco.mj_getState(e.physics.model.ptr, e.physics.data.ptr, states[i], spec)
+        controls = np.repeat(ctrls, envs.n_sub, axis=0)
+        controls = np.broadcast_to(controls, (_ROBOTS,) + controls.shape).copy()
+        datas = [mujoco.MjData(models[0]) for _ in range(threads)]
+        raw = _rollout(models, datas, states, controls, threads, repeats, now)
+    finally:
+        envs.close()
+    return counted[-1] / ours, controls.shape[0] * controls.shape[1] / raw
+
+
+def _candidates(n: int = 8) -> np.ndarray:
+    """Candidates around the hand-tuned gait with the CEM's initial spread (`bench_eval`'s)."""
+    rng = np.random.default_rng(0)
+    return cpg.amplitudes_from("hand_tuned") + rng.standard_normal((n, 11))
+
+
+def evaluator(steps: int, threads: int, repeats: int, now) -> tuple[float, float]:
+    """(ours, raw) physics steps per second of the open-loop evaluator and its rollout."""
+    from cpg_suite.evaluation.open_loop import BatchEvaluator
+
+    amplitudes = _candidates()
+    with BatchEvaluator("darwin_walk", steps, threads) as ev:
+        ev.evaluate(amplitudes[:1], [0])  # warm the initial-state cache
+        counted = []
+
+        def run():
+            counted.append(ev.evaluate(amplitudes, [0]).sim_steps)
+
+        ours = _best(run, repeats, now)
+        controls = np.repeat(ev.controls(amplitudes), ev.n_sub, axis=1)
+        initial = np.tile(ev.initial_state(0), (len(amplitudes), 1))
+        datas = [mujoco.MjData(ev.model) for _ in range(threads)]
+        raw = _rollout(ev.model, datas, initial, controls, threads, repeats, now)
+    return counted[-1] / ours, controls.shape[0] * controls.shape[1] / raw
+
+
+def scoring(steps: int, threads: int, repeats: int, now) -> tuple[float, float]:
+    """(ours, raw) physics steps per second of scoring the hand-tuned gait (four tiers × 2
+    test seeds) and of a rollout of the nominal gait as long."""
+    from cpg_suite.evaluation.open_loop import BatchEvaluator
+    from cpg_suite.protocol import score
+
+    amplitudes = cpg.amplitudes_from("hand_tuned")
+    settings = score.ScoreSettings(seeds=2, steps=steps, threads=threads)
+    counted = []
+
+    def run():
+        counted.append(score.score_gait(amplitudes, settings)["scoring_sim_steps"])
+
+    ours = _best(run, repeats, now)
+    trials = len(settings.tiers) * settings.seeds
+    with BatchEvaluator("darwin_walk", steps, threads) as ev:
+        ctrl = ev.controls(amplitudes[None])[0].repeat(ev.n_sub, axis=0)
+        state = ev.initial_state(protocol.TEST.start)
+        datas = [mujoco.MjData(ev.model) for _ in range(threads)]
+        states, controls = np.tile(state, (trials, 1)), np.tile(ctrl, (trials, 1, 1))
+        raw = _rollout(ev.model, datas, states, controls, threads, repeats, now)
+    return counted[-1] / ours, trials * len(ctrl) / raw
+
+
+def ratios(
+    paths=PATHS,
+    steps: int = 1000,
+    repeats: int = 3,
+    threads: int = 1,
+    clock: str = "cpu",
+    tiers=DARWIN_TIERS,
+):
+    """Yields `(path, ours, raw)` in physics steps per second, each pair measured back to back.
+
+    Args:
+      paths: Which of `PATHS`.
+      steps: Control steps per env timing and per trial (the vector env: a quarter).
+      repeats: Timings per figure (the best is kept).
+      threads: Threads of the vector env, the evaluator, scoring and their rollouts.
+      clock: "cpu" (the process's CPU time) or "wall".
+      tiers: The DARwIn-OP tiers whose `env.step` is timed.
+    """
+    now = CLOCKS[clock]
+    if "env" in paths:
+        for task_id in tiers:
+            yield f"env.step {task_id}", *env_step(task_id, steps, repeats, now)
+    if "vector" in paths:
+        yield (
+            f"vector env ({_ROBOTS} robots)",
+            *vector_env(max(1, steps // 4), threads, repeats, now),
+        )
+    if "evaluator" in paths:
+        yield "open-loop evaluator (8 candidates)", *evaluator(steps, threads, repeats, now)
+    if "score" in paths:
+        yield "scoring (4 tiers x 2 seeds)", *scoring(steps, threads, 1, now)
+
+
+@dataclasses.dataclass(frozen=True)
+class HotPathSettings:
+    """What the benchmark times.
+
+    Attributes:
+      steps: Control steps per env timing and per trial.
+      repeats: Timings per figure (the best is kept).
+      threads: Threads of the vector env, the evaluator, scoring and their rollouts.
+      clock: "cpu" or "wall".
+      paths: Which paths (`PATHS`).
+    """
+
+    steps: int = 1000
+    repeats: int = 3
+    threads: int = 1
+    clock: str = "cpu"
+    paths: tuple[str, ...] = PATHS
+
+    def __post_init__(self):
+        cli.require(self.steps >= 1, f"--steps must be ≥ 1, got {self.steps}")
+        cli.require(self.repeats >= 1, f"--repeats must be ≥ 1, got {self.repeats}")
+        cli.require(self.threads >= 1, f"--threads must be ≥ 1, got {self.threads}")
+        cli.require(self.clock in CLOCKS, f"--clock must be wall or cpu, got {self.clock!r}")
+        paths = tuple(p for p in self.paths if p)
+        unknown = [p for p in paths if p not in PATHS]
+        cli.require(bool(paths) and not unknown, f"--paths: one or more of {', '.join(PATHS)}")
+        object.__setattr__(self, "paths", paths)
+
+
+def main(argv: list[str]) -> None:
+    del argv
+    s = cli.settings_from_flags(HotPathSettings)
+    print(
+        f"physics steps per second ({s.clock} clock, best of {s.repeats}, {s.threads} "
+        f"thread(s)); ratio = ours / raw mujoco.rollout (goal >= {GOAL}, floor {FLOOR})"
+    )
+    print(f"{'path':40s} {'ours':>9s} {'raw':>9s} {'ratio':>6s}")
+    for path, ours, raw in ratios(s.paths, s.steps, s.repeats, s.threads, s.clock):
+        verdict = "ok" if ours / raw >= GOAL else "below goal" if ours / raw >= FLOOR else "LOW"
+        print(f"{path:40s} {ours:9.0f} {raw:9.0f} {ours / raw:6.3f} {verdict}", flush=True)
+
+
+def define_flags() -> None:
+    """Defines this script's command-line flags (only when it runs as a program)."""
+    d = HotPathSettings()
+    flags.DEFINE_integer("steps", d.steps, "Control steps per env timing and per trial.")
+    flags.DEFINE_integer("repeats", d.repeats, "Timings per figure (the best is kept).")
+    flags.DEFINE_integer("threads", d.threads, "Threads of the vector env, evaluator, scoring.")
+    flags.DEFINE_enum("clock", d.clock, list(CLOCKS), "cpu: the process's CPU time; wall.")
+    flags.DEFINE_list("paths", list(d.paths), "Paths, comma-separated: " + ", ".join(PATHS))
+
+
+if __name__ == "__main__":
+    define_flags()
+    cli.run(main)
