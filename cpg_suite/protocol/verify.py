@@ -890,7 +890,7 @@ def verify(
         "sample": sample_trials,
         "entropy": entropy,
     }
-    failed, outcomes = len(refused), {}
+    failed = len(refused)
     with contextlib.ExitStack() as stack:
         if jobs > 1:
             spawn = multiprocessing.get_context("spawn")  # no forked threads or torch state
@@ -909,11 +909,10 @@ def verify(
                 log(f"REFUSED {run_dir}; {refused[run_dir]}")
                 continue
             problems = outcome(run_dir)
-            outcomes[run_dir] = problems
+            if record:  # as each run is done: a run stopped midway keeps what it checked
+                write_ledger(record, {run_dir: problems}, sample_trials)
             failed += bool(problems)
             log(f"{'DIFF' if problems else 'ok  '} {run_dir}" + "".join(f"; {p}" for p in problems))
-    if record:
-        write_ledger(record, outcomes, sample_trials)
     total = len(chosen) + len(refused)
     what = f", {sample_trials} random trials each," if sample_trials else ""
     log(f"{total - failed} of {total} shipped runs{what} reproduced bit for bit")
