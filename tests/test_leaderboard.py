@@ -42,7 +42,7 @@ def test_leaderboard_rows_and_published_values(tmp_path, capsys):
     (runs / "cem" / "darwin_walk" / "broken_seed0" / "summary.json").write_text("[1, 2")
     out = tmp_path / "out" / "leaderboard.csv"
     line = leaderboard.write_tables(str(runs), str(out))
-    assert line.startswith("5 runs, ") and str(out) in line
+    assert line.startswith("5 runs: ") and str(out) in line
     rows = _read(out)
     assert list(rows[0]) == leaderboard.LEADERBOARD_FIELDS
     k50 = [r for r in rows if r["config"] == "K50_n0.8_e2" and r["metric"] == "best_distance_m"][0]
