@@ -164,15 +164,17 @@ def trusted_digests(path: str | None = None) -> frozenset[str]:
     return frozenset(digests)
 
 
-def trusted_artifacts_text(artifacts: str | None = None) -> str:
+def trusted_artifacts_text(artifacts: str | None = None, root: str | None = None) -> str:
     """The trusted list of the pickles shipped under `artifacts`: a line `<sha256>  <path>`
     for every Stable-Baselines3 file (`SB3_FILES`) of a run, sorted by path, the path
     relative to the repository (what `TRUSTED_LIST` holds).
 
     Args:
-      artifacts: A folder of shipped runs (None: the project's, `ARTIFACTS`).
+      artifacts: A folder of shipped runs (None: the project's, `ARTIFACTS` under `root`).
+      root: The checkout the paths are relative to (None: the one this module sits in;
+        an installed package sits in none, so its tests name their checkout).
     """
-    root = repository()
+    root = repository() if root is None else root
     artifacts = os.path.join(root, ARTIFACTS) if artifacts is None else artifacts
     lines = []
     for dirpath, _, names in os.walk(artifacts):
