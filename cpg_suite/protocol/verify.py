@@ -678,6 +678,7 @@ def audit_runs(
     threads: int = 2,
     trust_code: bool = False,
     trusted_list: str | None = None,
+    quick: bool = False,
 ) -> int:
     """Audits every admitted run on fresh seeds (`cpg_suite.protocol.audit`): one line per
     configuration (method, training task, configuration, version trained under).
@@ -688,6 +689,7 @@ def audit_runs(
       log: Given the entropy's line, a line per configuration, and a last line.
       entropy: The draw's entropy (None: fresh; logged, so that an audit can be replayed).
       jobs, threads, trust_code, trusted_list: As `verify`'s.
+      quick: Only the first run of each configuration (`_quick_sample`).
 
     Returns:
       How many configurations score better on their card than on the audit.
@@ -703,6 +705,7 @@ def audit_runs(
     chosen = [
         d for d in folders if d not in refused and code_refusal(d, trust_code, trusted) is None
     ]
+    chosen = _quick_sample(chosen) if quick else chosen
     entropy = sample.fresh_entropy() if entropy is None else entropy
     drawn = audit.draw_seeds(seeds, entropy)
     log(f"audit: {seeds} seeds a tier, drawn with --entropy={entropy}; {len(chosen)} runs")
@@ -1103,6 +1106,7 @@ def main(argv: list[str]) -> None:
                 threads=values.threads,
                 trust_code=values.trust_code,
                 trusted_list=values.trusted_list,
+                quick=values.quick,
             )
         except ValueError as e:
             raise cli.UsageError(str(e)) from None
