@@ -70,8 +70,11 @@ setup(
         "gymnasium>=1.0,<2",
     ],
     extras_require={
-        # The tests also render a gait video (Pillow for GIF/PNG, imageio + ffmpeg for MP4),
-        # run CMA-ES and check the Gymnasium wrappers.
+        # The fast tier (README: pytest -m "not slow"): the tests also render a gait video
+        # (Pillow for GIF/PNG, imageio + ffmpeg for MP4), run CMA-ES and check the Gymnasium
+        # wrappers. No torch, JAX or Ray: the shipped PPO policies are NumPy arrays
+        # (selected_policy.npz). The slow tier adds the rl, mjx and cluster extras (training
+        # smoke runs with Stable-Baselines3 and Brax, real Ray clusters, MJX on JAX's CPU).
         "test": [
             "pytest>=7,<10",
             "mpmath>=1.3,<2",  # 60-digit references for cpg_suite.portable's functions
@@ -83,13 +86,6 @@ setup(
             "gymnasium>=1.0,<2",
             "shimmy[dm-control]>=2.0,<3",
             "matplotlib>=3.7,<4",
-            # A real PyTorch agent (Stable-Baselines3 PPO) beside cpg_suite in one process.
-            "torch>=2.3,<3",
-            "stable-baselines3>=2.3,<3",
-            # The Ray backend on a real local Ray instance.
-            "ray>=2.9,<3",
-            # The MJX walking tiers against the CPU reference, on JAX's CPU backend.
-            *_MJX,
         ],
         "plots": [
             "matplotlib>=3.7,<4",

@@ -23,7 +23,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RUNS = os.path.join(ROOT, "results", "protocol", "runs")
 GAIT_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed0")  # the cheapest
 OTHER_GAIT_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed1")  # another seed
-POLICY_RUN = os.path.join(RUNS, "ppo", "darwin_walk", "cpg_seed0")  # an SB3 policy
+# An SB3 policy: the one shipped run that keeps its pickles beside its exported arrays
+# (`selected_policy.npz`, which verify scores); a copy without the arrays is an SB3 run.
+POLICY_RUN = os.path.join(RUNS, "ppo", "darwin_walk", "cpg_seed0")
 SB3 = (admission.SB3_MODEL, admission.SB3_NORMALIZER)
 
 
@@ -265,6 +267,7 @@ def test_the_board_executes_nothing_from_a_run_folder(tmp_path):
     run and the file is never written."""
     runs = tmp_path / "runs"
     run = _copy(runs, "cpg_seed0", source=POLICY_RUN, method="ppo")
+    (run / admission.EXPORTED).unlink()  # its pickles are its policy
     marker = tmp_path / "executed"
 
     class Payload:
@@ -410,6 +413,7 @@ def formats(tmp_path_factory):
     code = _as_code(_copy(runs, "code_seed0", source=OTHER_GAIT_RUN))  # not the tables' run
     _edit_json(code / "config.json", lambda c: c["settings"].update(seed=0))
     sb3 = _copy(runs, "cpg_seed0", source=POLICY_RUN, method="ppo")
+    (sb3 / admission.EXPORTED).unlink()  # its pickles are its policy
     (sb3 / "selected_vecnormalize.pkl").write_bytes(pickle.dumps(_Payload(sb3 / "unpickled")))
     return runs
 
@@ -501,12 +505,18 @@ def test_verify_cli_refuses_code_without_trust_code_and_runs_it_with(tmp_path):
     assert (code_run / "executed").exists()
 
 
-def test_the_trusted_list_is_every_shipped_sb3_pickle():
+def test_the_trusted_list_is_every_shipped_sb3_pickle(tmp_path):
     with open(os.path.join(ROOT, verify.TRUSTED_LIST), encoding="utf-8") as f:
         listed = f.read()
-    assert listed == verify.trusted_artifacts_text()
-    sb3_runs = [r for r in verify.shipped_runs(RUNS) if admission.artifact_files(r) == SB3]
-    assert len(sb3_runs) == 20 and len(listed.splitlines()) == 2 * len(sb3_runs)
-    assert all(verify.code_refusal(r) is None for r in sb3_runs)  # verified by default
-    assert verify.code_refusal(sb3_runs[0], trusted=frozenset()) is not None
-    assert verify.code_refusal(sb3_runs[0], trust_code=True, trusted=frozenset()) is None
+    assert listed == verify.trusted_artifacts_text(RUNS, ROOT)  # paths from this checkout
+    # One shipped run keeps its pickles; it is scored from its arrays, which are data.
+    kept = [r for r in verify.shipped_runs(RUNS) if set(SB3) <= set(os.listdir(r))]
+    assert kept == [POLICY_RUN] and len(listed.splitlines()) == 2
+    assert admission.artifact_files(POLICY_RUN) == (admission.EXPORTED,)
+    assert verify.code_refusal(POLICY_RUN, trusted=frozenset()) is None
+    sb3_run = _copy(tmp_path / "runs", "cpg_seed0", source=POLICY_RUN, method="ppo")
+    (sb3_run / admission.EXPORTED).unlink()  # its pickles are its policy
+    assert admission.artifact_files(str(sb3_run)) == SB3
+    assert verify.code_refusal(str(sb3_run)) is None  # verified by default
+    assert verify.code_refusal(str(sb3_run), trusted=frozenset()) is not None
+    assert verify.code_refusal(str(sb3_run), trust_code=True, trusted=frozenset()) is None

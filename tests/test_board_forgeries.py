@@ -238,6 +238,7 @@ class _Payload:
 def test_a_trust_list_planted_in_the_working_directory_is_not_read(tmp_path):
     runs = tmp_path / "runs"
     run = _copy(runs, "cpg_seed0", source=os.path.join(RUNS, "ppo", "darwin_walk", "cpg_seed0"))
+    (run / "selected_policy.npz").unlink()  # the run that keeps its pickles, as an SB3 run
     marker = tmp_path / "unpickled"
     (run / "selected_vecnormalize.pkl").write_bytes(pickle.dumps(_Payload(marker)))
     planted = tmp_path / "results" / "protocol"

@@ -11,6 +11,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 _MODULES = (
     "cpg_suite.evaluation.evaluate",
     "baselines.experiments.calibrate_cpg",
@@ -19,16 +21,18 @@ _MODULES = (
     "baselines.experiments.nac_experiments",
     "cpg_suite.render",
     "cpg_suite.evaluation.gait",
-    "baselines.ppo",
     "cpg_suite.vector",
     "cpg_suite.residual",
 )
+_RL = ("torch", "stable_baselines3")  # the rl extra: baselines.ppo imports them
 
 _CODE = r"""
 import importlib, json, os
 from absl import flags
 # Third-party import-time effects are not ours: import them first.
-import dm_control.suite, mujoco, pandas, tqdm, gymnasium, torch, stable_baselines3  # noqa
+import dm_control.suite, mujoco, pandas, tqdm, gymnasium  # noqa
+for name in THIRD_PARTY:
+    importlib.import_module(name)
 flags_before, environ_before = set(flags.FLAGS), dict(os.environ)
 for name in MODULES:
     importlib.import_module(name)
@@ -40,9 +44,14 @@ print(json.dumps({
 """
 
 
-def test_cli_modules_import_together_without_flags_or_environment_changes():
+@pytest.mark.parametrize("rl", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_cli_modules_import_together_without_flags_or_environment_changes(rl):
+    """Without and (the slow tier's rl extra) with baselines.ppo, torch and SB3."""
+    for name in _RL if rl else ():
+        pytest.importorskip(name)
     env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY")}
-    code = f"MODULES = {_MODULES!r}\n" + _CODE
+    modules = _MODULES + (("baselines.ppo",) if rl else ())
+    code = f"MODULES = {modules!r}\nTHIRD_PARTY = {_RL if rl else ()!r}\n" + _CODE
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
     )

@@ -58,7 +58,10 @@ def _clean_env():
     return env
 
 
+@pytest.mark.slow  # every module: torch (rl), JAX and Brax (mjx), Ray (cluster) too
 def test_importing_every_module_together_changes_no_process_state():
+    for extra in ("torch", "stable_baselines3", "jax", "brax", "ray"):
+        pytest.importorskip(extra)
     code = f"PACKAGES = {_PACKAGES!r}\n" + _IMPORT_ALL
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, env=_clean_env(), timeout=300
@@ -132,8 +135,10 @@ def test_pytorch_agent_runs_beside_cpg_suite_headless():
     assert out.stdout.strip().splitlines()[-1] == "trained"
 
 
+@pytest.mark.slow  # JAX: the mjx extra, which the slow tier installs
 def test_importing_mjx_keeps_numpy_global_draws():
     """jax draws from numpy's global generator on import; cpg_suite.mjx puts it back."""
+    pytest.importorskip("jax")
     code = (
         "import numpy as np\nnp.random.seed(7)\n"
         "import cpg_suite.mjx, sys\nassert 'jax' in sys.modules\n"

@@ -1,7 +1,8 @@
 """Runs give the same bits on any x86-64 CPU: CPU-independent linear algebra and elementary
 functions (within an ulp or two of 60-digit references), and the CPG's targets (open and
-closed loop), exported and torch policies' actions and short CEM and CMA-ES runs under
-forced OpenBLAS kernels, NumPy SIMD levels and torch CPU capabilities."""
+closed loop), exported policies' actions (Brax's and Stable-Baselines3's PPO, as NumPy
+arrays) and short CEM and CMA-ES runs under forced OpenBLAS kernels, NumPy SIMD levels and
+torch CPU capabilities."""
 
 import json
 import math
@@ -191,12 +192,11 @@ for head in ("normal", "tanh_normal"):
     policy = exported.NumpyPolicy(arrays, "joints")
     actions = [policy.act(rng.standard_normal((1, 40))) for _ in range(64)]
     out[f"numpy_policy_{head}"] = digest(actions)
-# The shipped Stable-Baselines3 PPO policies as the test protocol runs them (PortableActor).
-from cpg_suite.protocol import verify
+# The shipped Stable-Baselines3 PPO policies as the test protocol runs them (their arrays).
 for name in ("joints_v1_seed0", "cpg_v1_seed0"):
-    policy = verify.shipped_policy(os.path.join(sys.argv[2], name))
-    flat = 3 * rng.standard_normal((64, policy.model.observation_space.shape[0]))
-    out[f"sb3_{name}"] = digest([policy.actor(flat[i:i + 1]) for i in range(64)])
+    policy = exported.NumpyPolicy.load(os.path.join(sys.argv[2], name, exported.FILE))
+    flat = 3 * rng.standard_normal((64, len(policy.mean)))
+    out[f"sb3_{name}"] = digest([policy.act(flat[i:i + 1]) for i in range(64)])
 # Short CEM and CMA-ES runs.
 base = dict(population=6, rounds=3, trial_steps=150, fall_penalty=10.0)
 base.update(validation_seeds=2, test_seeds=2)

@@ -1,8 +1,12 @@
-"""PPO (`baselines.ppo`) and its CPG action space (`cpg_suite.residual`): real SB3 and torch."""
+"""PPO (`baselines.ppo`) and its CPG action space (`cpg_suite.residual`): real SB3 and torch
+in the slow tier (the rl extra); the CPG action space and the shipped policies as data
+(`selected_policy.npz`) in the fast tier, without torch."""
 
 import csv
 import dataclasses
+import importlib.util
 import os
+import shutil
 import subprocess
 import sys
 
@@ -11,13 +15,30 @@ import pytest
 
 import cpg_suite
 from analysis import leaderboard, report
-from baselines import ppo
 from cpg_suite import cpg, darwin, electrical, protocol, residual, vector
-from cpg_suite.harness import checkpoints, learner, runs, sb3
-from cpg_suite.protocol import score
+from cpg_suite.harness import exported, runs
+from cpg_suite.protocol import admission, score, verify
+
+RL = all(importlib.util.find_spec(m) for m in ("torch", "stable_baselines3"))
+if RL:  # the rl extra
+    from baselines import ppo
+    from cpg_suite.harness import checkpoints, learner, sb3
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SHIPPED = os.path.join(ROOT, verify.ARTIFACTS, "ppo", "darwin_walk")
+# The one shipped run that keeps its SB3 pickles beside its exported arrays (the tests
+# that load SB3 itself); verify scores the arrays.
+WITH_PICKLES = os.path.join(SHIPPED, "cpg_seed0")
 
 
-def _settings(**kw) -> ppo.PPOSettings:
+def rl(test):
+    """A test of Stable-Baselines3 and torch: the slow tier's (its README line installs
+    the rl extra); skipped where they are not installed."""
+    reason = "needs the rl extra (Stable-Baselines3, torch): pip install '.[rl]'"
+    return pytest.mark.slow(pytest.mark.skipif(not RL, reason=reason)(test))
+
+
+def _settings(**kw) -> "ppo.PPOSettings":
     base = dict(
         total_steps=512,
         num_envs=2,
@@ -86,6 +107,7 @@ def test_phase_rate_correction():
     assert np.array_equal(modulated.phase_features(), np.stack([np.cos(phase), np.sin(phase)], 1))
 
 
+@rl
 def test_the_envs_hold_the_benchmark_versions_supply_limit():
     """Version 2 (the default) trains under the supply's limit; version 1, the study's
     unlimited supply, computes the current without enforcing it."""
@@ -98,6 +120,7 @@ def test_the_envs_hold_the_benchmark_versions_supply_limit():
         _settings(benchmark_version=7)
 
 
+@rl
 def test_cpg_wrapper_with_zero_actions_walks_the_hand_tuned_gait():
     settings = _settings(action_space="cpg", trial_steps=1000)
     env = sb3.make_vector_env(settings, 2, threads=1)
@@ -116,6 +139,7 @@ def test_cpg_wrapper_with_zero_actions_walks_the_hand_tuned_gait():
 
 
 # The SB3 adapter.
+@rl
 def test_supply_cost_takes_the_charge_above_idle_from_the_reward_and_keeps_task_returns():
     """κ > 0: each step's reward loses κ·Σ_k (i_k − idle)·h, with the currents the tasks'
     supply monitors were given (their running totals); the episodes' returns stay the
@@ -148,17 +172,20 @@ def test_supply_cost_takes_the_charge_above_idle_from_the_reward_and_keeps_task_
         sb3.FlatVecEnv(sb3.make_vector_env(settings, 2, threads=1), -0.1)
 
 
+@rl
 @pytest.mark.parametrize("value", [-0.01, float("nan"), float("inf")])
 def test_supply_cost_must_be_a_finite_number_at_least_zero(value):
     with pytest.raises(ValueError, match="--supply_cost"):
         _settings(supply_cost=value)
 
 
+@rl
 def test_a_supply_shaped_run_is_named_by_its_cost():
     assert ppo.default_run_name(_settings(seed=2)) == "joints_seed2"
     assert ppo.default_run_name(_settings(seed=2, supply_cost=0.03)) == "joints_c0.03_seed2"
 
 
+@rl
 @pytest.mark.parametrize("action_space, size", [("joints", 40), ("cpg", 42)])
 def test_flat_vec_env_terminal_observation_and_truncation(action_space, size):
     settings = _settings(action_space=action_space, trial_steps=5)
@@ -204,6 +231,7 @@ def _without_wall(summary):
     return {k: v for k, v in summary.items() if k != "wall_s"}
 
 
+@rl
 def test_joints_run_files_leaderboard_row_and_policy(tmp_path):
     import torch
 
@@ -248,10 +276,9 @@ def test_joints_run_files_leaderboard_row_and_policy(tmp_path):
     assert trial["distance_m"] * (not trial["fell"]) == pytest.approx(value, abs=1e-9)
 
 
+@rl
 def test_a_policy_run_ships_and_verifies_bit_for_bit(tmp_path):
     """The policy, its normalizer and learning curve ship; `verify` re-scores them."""
-    from cpg_suite.protocol import verify
-
     settings = _settings(action_space="cpg", test_tiers=("darwin_walk", "darwin_walk_push"))
     run_dir, summary = ppo.run(settings, _options(tmp_path / "runs"), log=_quiet)
     dest = str(tmp_path / "shipped" / "ppo" / "darwin_walk" / "cpg_seed0")
@@ -269,8 +296,26 @@ def test_a_policy_run_ships_and_verifies_bit_for_bit(tmp_path):
     assert verify.verify_run(dest, quick=True, trust_code=True) == []
     stored = runs.read_json(os.path.join(dest, "summary.json"))["test"]
     assert stored == summary["test"]
+    # Exported as data, it ships without its pickles and verifies without trust or torch's
+    # arithmetic: the same trials.
+    assert sb3.export_run(run_dir) == (os.path.join(run_dir, exported.FILE), "wrote")
+    assert sb3.export_run(run_dir)[1] == "same"
+    as_data = str(tmp_path / "as_data" / "ppo" / "darwin_walk" / "cpg_seed0")
+    verify.ship(run_dir, as_data)
+    assert sorted(os.listdir(as_data)) == sorted(
+        [
+            exported.FILE,
+            "progress.csv",
+            "config.json",
+            "summary.json",
+            "trials.csv",
+            "versions.json",
+        ]
+    )
+    assert verify.verify_run(as_data) == []
 
 
+@rl
 def test_cpg_run_killed_after_a_checkpoint_resumes_to_the_same_result(tmp_path):
     settings = _settings(action_space="cpg")
     straight_dir, straight = ppo.run(settings, _options(tmp_path / "a"), log=_quiet)
@@ -303,20 +348,15 @@ def test_cpg_run_killed_after_a_checkpoint_resumes_to_the_same_result(tmp_path):
     assert summary_bytes
 
 
-_SHIPPED_PPO = os.path.join(
-    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "results/protocol/runs/ppo"
-)
-
-
-@pytest.mark.parametrize("name", ["cpg_seed0", "joints_seed1"])
-def test_the_portable_actor_is_the_torch_policy_to_float32_rounding(name):
-    """The test protocol's actor (NumPy, portable arithmetic) against SB3's own predict
-    (torch, float32) on a shipped policy: the same function; and each row's action does
-    not depend on the rows beside it."""
-    from cpg_suite.protocol import verify
-
-    policy = verify.shipped_policy(os.path.join(_SHIPPED_PPO, "darwin_walk", name))
-    flat = 3 * np.random.default_rng(5).standard_normal((20, 42 if "cpg" in name else 40))
+# The shipped policies as data.
+@rl
+def test_the_export_is_the_torch_policy_to_float32_rounding():
+    """The test protocol's policy (NumPy, portable arithmetic) against SB3's own predict
+    (torch, float32) on the shipped run that keeps its pickles: the same function; and
+    each row's action does not depend on the rows beside it."""
+    config = runs.read_json(os.path.join(WITH_PICKLES, "config.json"))
+    policy = sb3.load_shipped_policy(WITH_PICKLES, "ppo", config["settings"])
+    flat = 3 * np.random.default_rng(5).standard_normal((20, 42))
     with sb3.single_threaded():
         reference = np.concatenate(
             [sb3.predict(policy.model, policy.normalizer, r[None]) for r in flat]
@@ -327,16 +367,84 @@ def test_the_portable_actor_is_the_torch_policy_to_float32_rounding(name):
     assert np.array_equal(np.concatenate([policy.actor(r[None]) for r in flat]), actions)
 
 
-def test_the_portable_actor_refuses_a_policy_it_does_not_compute():
+@rl
+def test_the_shipped_arrays_are_the_pickles_export_bit_for_bit(tmp_path):
+    """The converter (`python -m cpg_suite.harness.sb3 --export`) on a copy of the run that
+    keeps its pickles finds the arrays it would write already there, value for value;
+    another policy's file is kept unless --overwrite."""
+    run = tmp_path / "ppo" / "darwin_walk" / "cpg_seed0"
+    shutil.copytree(WITH_PICKLES, run)
+    command = [sys.executable, "-m", "cpg_suite.harness.sb3", f"--export={tmp_path}"]
+    out = subprocess.run(command, capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == [
+        f"same     {run / exported.FILE}",
+        f"1 runs' policies exported as {exported.FILE}",
+    ]
+    other = exported.NumpyPolicy.load(os.path.join(SHIPPED, "cpg_seed1", exported.FILE))
+    other.save(str(run / exported.FILE))
+    with pytest.raises(FileExistsError, match="another policy"):
+        sb3.export_run(str(run))
+    assert sb3.export_run(str(run), overwrite=True)[1] == "replaced"
+    assert sb3.export_run(str(run))[1] == "same"
+    out = subprocess.run(command[:-1] + ["--export=no_such_folder"], capture_output=True, text=True)
+    assert out.returncode == 2 and out.stderr.strip().splitlines() == [
+        "error: --export=no_such_folder: no such folder"
+    ]
+
+
+@rl
+def test_the_export_refuses_a_policy_it_does_not_compute():
     import torch
     from stable_baselines3 import PPO
 
     env = sb3.normalized(sb3.FlatVecEnv(sb3.make_vector_env(_settings(), 1, threads=1)), 0.99)
     model = PPO("MlpPolicy", env, policy_kwargs={"activation_fn": torch.nn.ReLU}, n_steps=64)
     with pytest.raises(ValueError, match="Tanh"):
-        sb3.PortableActor(model, env)
+        sb3.export_policy(model, env, _settings())
 
 
+@pytest.mark.parametrize("name", ["cpg_v1_seed1", "joints_seed1"])
+def test_a_shipped_ppo_run_replays_its_trials_from_its_arrays(name):
+    """Without torch: verify scores a shipped PPO run from its arrays (data, no pickle),
+    and a trial equals its trial table bit for bit."""
+    run = os.path.join(SHIPPED, name)
+    assert admission.artifact_files(run) == (admission.EXPORTED,)
+    assert verify.code_refusal(run, trusted=frozenset()) is None
+    assert verify.sample_run(run, {"darwin_walk_push": [protocol.TEST.start + 7]}) == []
+
+
+@pytest.mark.parametrize("name", ["cpg_seed0", "joints_seed1"])
+def test_a_shipped_ppo_policy_is_vecnormalize_then_a_tanh_mlp_clipped_to_its_box(name):
+    """Without torch: a shipped PPO policy's arrays (no pickle) compute SB3's deterministic
+    action: (x − mean)/√(var + ε) clipped at ±clip_obs, rounded to float32, the tanh MLP,
+    the mean clipped to the action box (here against BLAS, to 1e-12); row by row; saved
+    and loaded again, the same arrays."""
+    path = os.path.join(SHIPPED, name, exported.FILE)
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    policy = exported.NumpyPolicy.load(path)
+    assert (policy.activation, policy.head, policy.input_dtype) == ("tanh", "normal", "float32")
+    assert policy.action_space == str(arrays["action_space"]) == name.split("_")[0]
+    assert policy.scales == ({"amplitude_scale": 10.0, "rate_scale": 0.5} if "cpg" in name else {})
+    assert [k.shape for k, _ in policy.layers][1:] == [(256, 256), (256, 12)]
+    flat = 3 * np.random.default_rng(5).standard_normal((20, len(policy.mean)))
+    flat[0, :3] = 1e6  # clipped
+    x = np.clip((flat - arrays["mean"]) / np.sqrt(arrays["var"] + arrays["epsilon"]), -10, 10)
+    x = x.astype(np.float32).astype(np.float64)
+    for i in range(3):
+        x = x @ arrays[f"kernel_{i}"] + arrays[f"bias_{i}"]
+        x = np.tanh(x) if i < 2 else x
+    expected = np.clip(x, arrays["action_low"], arrays["action_high"])
+    actions = policy.act(flat)
+    np.testing.assert_allclose(actions, expected, rtol=0, atol=1e-12)
+    assert np.array_equal(np.concatenate([policy.act(r[None]) for r in flat]), actions)
+    assert policy.clip_obs == 10.0 and np.array_equal(policy.box[0], -np.ones(12))
+    again = exported.NumpyPolicy(policy.arrays(), policy.action_space)
+    assert np.array_equal(again.act(flat), actions)
+
+
+@rl
 def test_settings_are_checked():
     for kw, words in [
         ({"action_space": "torques"}, "--action_space"),
@@ -356,6 +464,7 @@ def _cli(*args):
     )
 
 
+@rl
 def test_cli_bad_input_is_one_line_exit_2(tmp_path):
     out = _cli("--action_space=torques", f"--output_dir={tmp_path}")
     assert out.returncode == 2, out.stderr
@@ -370,6 +479,7 @@ def test_cli_bad_input_is_one_line_exit_2(tmp_path):
     assert len(lines) == 1 and "--overwrite" in lines[0] and "--resume" in lines[0]
 
 
+@rl
 def test_import_changes_no_torch_threads():
     code = (
         "import torch; n = torch.get_num_threads(); import baselines.ppo; "

@@ -12,18 +12,23 @@ import pickle
 import subprocess
 import sys
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
-from brax.envs import base as brax_base
-from brax.training.acme import running_statistics
-from brax.training.agents.ppo import networks as ppo_networks
 
-from baselines import ppo_mjx
-from cpg_suite import cli, electrical
-from cpg_suite.mjx import training
-from cpg_suite.mjx import walk as mjx_walk
+pytestmark = pytest.mark.slow  # JAX and Brax: the mjx extra, which the slow tier installs
+
+jax = pytest.importorskip("jax")
+pytest.importorskip("brax")
+
+import jax.numpy as jnp  # noqa: E402
+from brax.envs import base as brax_base  # noqa: E402
+from brax.training.acme import running_statistics  # noqa: E402
+from brax.training.agents.ppo import networks as ppo_networks  # noqa: E402
+
+from baselines import ppo_mjx  # noqa: E402
+from cpg_suite import cli, electrical  # noqa: E402
+from cpg_suite.mjx import training  # noqa: E402
+from cpg_suite.mjx import walk as mjx_walk  # noqa: E402
 
 
 def _brax_params(obs_size: int, layers=(16, 16), seed: int = 0, head: str = "tanh_normal"):

@@ -38,4 +38,4 @@ def test_quick_start_has_the_main_job_and_both_test_tiers():
     assert len(commands) == 3
     assert commands[0].startswith("pip install . && python -m baselines.")
     assert commands[1] == 'pip install ".[test]" && pytest -q -m "not slow"'
-    assert commands[2] == "pytest -q -m slow"
+    assert commands[2] == 'pip install ".[test,rl,mjx,cluster]" && pytest -q -m slow'

@@ -147,7 +147,6 @@ def test_cli_bad_input(args, words):
 def test_a_shipped_sb3_policy_scored_in_batches_gets_the_card_of_trial_by_trial(run):
     """SB3 policies step their trials together too: the network row by row, the CPG rows
     and the physics of all trials at once (two threads); the same trials and card."""
-    pytest.importorskip("stable_baselines3")
     import os
 
     from cpg_suite.protocol import verify
