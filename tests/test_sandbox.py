@@ -117,6 +117,7 @@ def test_an_honest_policy_keeps_its_trials_bit_for_bit(tmp_path, honest_trials):
         assert score.seed_trials(policy, SETTINGS, CHOSEN) == honest_trials
     finally:
         policy.close()
+    assert os.listdir(tmp_path) == ["honest.py"]  # it wrote nothing beside it (no bytecode)
 
 
 def test_a_batched_policy_keeps_its_trials_across_the_boundary(tmp_path):

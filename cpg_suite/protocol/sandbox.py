@@ -146,7 +146,7 @@ class IsolatedPolicy:
         self._stderr = tempfile.TemporaryFile()
         environment = {k: os.environ[k] for k in _ENVIRONMENT if k in os.environ}
         self._process = subprocess.Popen(
-            [sys.executable, "-E", "-s", "-c", _BOOT.format(root=_ROOT, path=path)],
+            [sys.executable, "-B", "-E", "-s", "-c", _BOOT.format(root=_ROOT, path=path)],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self._stderr,
