@@ -639,12 +639,28 @@ def sample_run(
     Raises:
       UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
     """
+    fresh = seed_trials(run_dir, lambda tiers: chosen, threads, trust_code, trusted)
+    return sample.compare(fresh, read_trials(os.path.join(run_dir, "trials.csv")))
+
+
+def seed_trials(
+    run_dir: str,
+    choose: Callable[[tuple[str, ...]], dict[str, list[int]]],
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+) -> list[dict]:
+    """A shipped run's gait or policy scored on seeds of its own choosing
+    (`score.seed_trials`): `choose` maps the run's tiers to {tier: [seed, ...]}.
+
+    Raises:
+      UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
+    """
     settings = run_settings(run_dir, threads=threads)
     policy = shipped_policy(run_dir, trust_code, trusted)
     artifact = gait_params(run_dir, settings.controller) if policy is None else policy
     with policy_threads(run_dir):
-        fresh = score.seed_trials(artifact, settings, chosen)
-    return sample.compare(fresh, read_trials(os.path.join(run_dir, "trials.csv")))
+        return score.seed_trials(artifact, settings, choose(settings.tiers))
 
 
 def _check_run(run_dir: str, how: dict) -> list[str]:
@@ -663,11 +679,13 @@ def audit_run(run_dir: str, seeds: list[int], how: dict) -> tuple[dict, dict]:
     Raises:
       UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
     """
-    settings = run_settings(run_dir, threads=how["threads"])
-    policy = shipped_policy(run_dir, how["trust_code"], how["trusted"])
-    artifact = gait_params(run_dir, settings.controller) if policy is None else policy
-    with policy_threads(run_dir):
-        fresh = score.seed_trials(artifact, settings, {t: seeds for t in settings.tiers})
+    fresh = seed_trials(
+        run_dir,
+        lambda tiers: {t: seeds for t in tiers},
+        how["threads"],
+        how["trust_code"],
+        how["trusted"],
+    )
     card = audit.scores(read_trials(os.path.join(run_dir, "trials.csv")))
     return card, audit.scores(fresh)
 
