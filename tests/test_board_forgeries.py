@@ -336,3 +336,25 @@ def test_a_submission_killed_midway_leaves_no_run_and_the_board_lists_its_folder
     (row,) = refused
     assert row["run"].startswith("my_method/darwin_walk/.K8_seed0.partial-")
     assert row["reason"].startswith("a submission's half-written folder")
+
+
+def test_a_copy_nudged_past_a_micrometre_and_a_backdated_copy_are_still_copies(tmp_path):
+    """A second reader's attacks: every trial +2e-6 m with the card rebuilt and the gait
+    scaled by 1 + 2e-6; and a byte copy whose config claims an earlier start than a run the
+    board's ledger records."""
+    runs = tmp_path / "protocol" / "runs"
+    original = _copy(runs, "K50_seed0")
+    nudged = _copy(runs, "K50_seed0", method="my_method")
+    _edit_consistently(nudged, lambda r: r.update(distance_m=repr(float(r["distance_m"]) + 2e-6)))
+    params = json.loads((nudged / "selected_params.json").read_text())
+    params["amplitudes"] = {k: v * (1 + 2e-6) for k, v in params["amplitudes"].items()}
+    (nudged / "selected_params.json").write_text(json.dumps(params))
+    (reason,) = _refused(runs).values()
+    assert reason.startswith("a copy of cem/darwin_walk/K50_seed0")
+    shutil.rmtree(nudged)
+    backdated = _copy(runs, "K50_seed0", method="my_method")
+    config = json.loads((backdated / "config.json").read_text())
+    config["environment"]["started_utc"] = "2000-01-01T00:00:00Z"
+    (backdated / "config.json").write_text(json.dumps(config))
+    verify.write_ledger(str(tmp_path / "protocol" / admission.LEDGER), {str(original): []})
+    assert set(_refused(runs)) == {"my_method/darwin_walk/K50_seed0"}

@@ -420,7 +420,8 @@ def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, s
     """The runs the board of `version` refuses, each with its reason (`run_refusal`), and
     the copies: a run whose trial outcomes, or whose gait or policy, equal as values those
     of an earlier run trained under the same benchmark version (`cpg_suite.protocol.copies`),
-    in any configuration of any method. Earlier: the run that says it started first
+    in any configuration of any method. Earlier: a run the ledger beside the tree records
+    with its present files (`_on_record`), then the run that says it started first
     (`copies.started`), then path order. Runs trained under different versions are not
     compared: a version-1 run is listed beside its version-2 re-run, never ranked with it
     (six shipped CEM seeds trained to the same gait under both: the limit never bit).
@@ -434,7 +435,7 @@ def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, s
     """
     run_dirs = list(run_dirs)
     refused, kept = {}, []
-    for run_dir in sorted(run_dirs, key=lambda d: (copies.started(d), d)):
+    for run_dir in sorted(run_dirs, key=lambda d: (not _on_record(d), copies.started(d), d)):
         reason = run_refusal(run_dir, version)
         if reason is None:
             reason, fingerprint = _copy_refusal(run_dir, version, kept)
@@ -443,6 +444,15 @@ def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, s
         if reason is not None:
             refused[run_dir] = reason
     return {d: refused[d] for d in run_dirs if d in refused}
+
+
+def _on_record(run_dir: str) -> bool:
+    """Whether the ledger beside the run's tree (`LEDGER`) records this run, with the files it
+    holds now: such a run entered first, whatever start time a copy's config claims."""
+    tree = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(run_dir))))
+    ledger = read_ledger(os.path.join(os.path.dirname(tree), LEDGER))
+    row = ledger.get(run_key(run_dir))
+    return bool(row) and row["files_sha256"] == run_digest(run_dir)
 
 
 def _copy_refusal(run_dir: str, version: int | None, kept: list) -> tuple:

@@ -38,11 +38,13 @@ import numpy as np
 from cpg_suite import feedback
 
 # m: two trial tables whose outcomes are equal and whose distances all lie this close are
-# one run's (a choice: honest seeds differ by centimetres; a float printed with fewer
-# digits differs by < 1e-15 m).
-TRIAL_TOLERANCE_M = 1e-6
-# Relative: two gaits or policies whose values all lie this close are one (a choice).
-VALUE_RTOL = 1e-6
+# one run's (a choice: the closest two shipped tables with equal outcomes differ by 4.1 m;
+# a float printed with fewer digits differs by < 1e-15 m; a forger nudging every trial by
+# more than this moves the card by as much, and meets `verify --sample`).
+TRIAL_TOLERANCE_M = 1e-3
+# Relative: two gaits or policies whose values all lie this close are one (a choice: the
+# closest two shipped ones differ by 35 % in their most different value).
+VALUE_RTOL = 1e-4
 VALUE_ATOL = 1e-12
 
 
