@@ -39,7 +39,8 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, portable, progress
-from cpg_suite.harness import grids, interface, optimize, rounds, runs
+from cpg_suite.harness import grids, interface, optimize, rounds
+from cpg_suite.runfiles import runs
 
 # Thesis Table 6.3 (K, noise, elite), plus the variants of Sec. 6.3: the lateral penalty,
 # noise 0.2 / 1.0 (K 10, elite 2) and K = 70 / 100 (elite 2, noise 0.8; "not as good", no

@@ -42,7 +42,8 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, portable, progress
-from cpg_suite.harness import grids, interface, optimize, runs
+from cpg_suite.harness import grids, interface, optimize
+from cpg_suite.runfiles import runs
 
 METHOD = "cmaes"  # its run directories' second level and its leaderboard rows
 

@@ -59,7 +59,7 @@ from absl import flags
 
 import cpg_suite
 from cpg_suite import cli, cpg, progress
-from cpg_suite.harness import runs
+from cpg_suite.runfiles import runs
 
 TASKS = ("darwin_balance", "darwin_walk")
 N_FEATURES = 15  # 1, 12 joint positions, 2 phases (thesis Sec. 5.4)

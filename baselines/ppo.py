@@ -47,8 +47,9 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecEnv
 
 from cpg_suite import cli, progress, protocol, residual
-from cpg_suite.harness import checkpoints, learner, runs, sb3
+from cpg_suite.harness import checkpoints, learner
 from cpg_suite.protocol import score
+from cpg_suite.runfiles import runs, sb3_policy
 
 METHOD = "ppo"  # its run directories' second level and its leaderboard rows
 TASKS = protocol.TIERS
@@ -245,7 +246,7 @@ def run(
     return learner.run(LEARNER, settings, options, log, on_checkpoint)
 
 
-def load_policy(run_dir: str, which: str = "selected") -> sb3.TrainedPolicy:
+def load_policy(run_dir: str, which: str = "selected") -> sb3_policy.TrainedPolicy:
     """A PPO run's `selected` (best validation) or `final` policy.
 
     Args:
@@ -257,7 +258,7 @@ def load_policy(run_dir: str, which: str = "selected") -> sb3.TrainedPolicy:
     """
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     settings = PPOSettings(**config["settings"])
-    return sb3.TrainedPolicy.load(run_dir, PPO, settings, which)
+    return sb3_policy.TrainedPolicy.load(run_dir, PPO, settings, which)
 
 
 def summary_line(run_dir: str, summary: dict) -> str:

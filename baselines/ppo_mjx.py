@@ -58,11 +58,11 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, darwin, progress, protocol
-from cpg_suite.harness import runs
-from cpg_suite.harness.exported import FILE as POLICY_FILE
-from cpg_suite.harness.exported import HEADS, NumpyPolicy
 from cpg_suite.mjx import walk as mjx_walk
 from cpg_suite.protocol import score
+from cpg_suite.runfiles import runs
+from cpg_suite.runfiles.exported import FILE as POLICY_FILE
+from cpg_suite.runfiles.exported import HEADS, NumpyPolicy
 
 METHOD = "ppo_mjx"  # its run directories' second level and its leaderboard rows
 TASKS = mjx_walk.TASKS

@@ -36,7 +36,7 @@ from baselines import cem
 from cpg_suite import cli, cpg
 from cpg_suite.evaluation.gait import evaluate_gait
 from cpg_suite.evaluation.open_loop import BatchEvaluator
-from cpg_suite.harness import runs
+from cpg_suite.runfiles import runs
 
 
 def raw_rollout_rate(

@@ -33,8 +33,8 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, protocol
-from cpg_suite.harness import exported
 from cpg_suite.protocol import score
+from cpg_suite.runfiles import exported
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RUN = os.path.join(ROOT, "results", "protocol", "runs", "ppo_mjx", "darwin_walk", "cpg_seed0")

@@ -136,7 +136,7 @@ _PUBLIC = {
     "submit_gait": "cpg_suite.protocol.submit:submit_gait",
     "open_evaluator": "cpg_suite.evaluation:open_evaluator",
     "OptimizerSettings": "cpg_suite.harness.interface:OptimizerSettings",
-    "RunOptions": "cpg_suite.harness.runs:RunOptions",
+    "RunOptions": "cpg_suite.runfiles.runs:RunOptions",
     "AskTell": "cpg_suite.harness.optimize:AskTell",
     "run_optimizer": "cpg_suite.harness.optimize:run",
 }

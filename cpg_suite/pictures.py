@@ -103,8 +103,8 @@ def gait_frames(run_dir: str, steps: int = STEPS, every: int = 2) -> tuple[np.nd
     """
     import cpg_suite
     from cpg_suite import darwin, protocol
-    from cpg_suite.harness import runs
     from cpg_suite.protocol import score, verify
+    from cpg_suite.runfiles import runs
 
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     settings = verify.card_settings(config, 1, 1, verify.stored_card(run_dir))

@@ -30,7 +30,8 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3 import PPO
 
 from cpg_suite import darwin, protocol, vector
-from cpg_suite.harness import exported, sb3
+from cpg_suite.harness import sb3
+from cpg_suite.runfiles import exported, sb3_policy
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # the repository
 HERE = os.path.join(ROOT, "results", "protocol", "ppo_joints_under_limit")  # its data
@@ -85,7 +86,9 @@ def _policy(run_dir: str, deterministic: bool, space):
         return policy.act_batch
     with open(_config_path(run_dir), encoding="utf-8") as f:
         settings = json.load(f)["settings"]
-    policy = sb3.TrainedPolicy.load(run_dir, PPO, types.SimpleNamespace(**settings), which="final")
+    policy = sb3_policy.TrainedPolicy.load(
+        run_dir, PPO, types.SimpleNamespace(**settings), which="final"
+    )
     keys = sb3.observation_keys(space)
 
     def act(observations):

@@ -15,9 +15,9 @@ import pytest
 
 from analysis import leaderboard
 from cpg_suite import cpg, darwin, protocol
-from cpg_suite.harness import exported
 from cpg_suite.protocol import admission, score, verify
 from cpg_suite.protocol import card as card_stats
+from cpg_suite.runfiles import exported
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RUNS = os.path.join(ROOT, "results", "protocol", "runs")

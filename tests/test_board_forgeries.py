@@ -301,7 +301,7 @@ def test_maintenance_changes_nothing_when_one_run_may_not_be_changed(tmp_path):
 
 def test_run_files_take_the_users_umask(tmp_path):
     script = (
-        "import os, sys; os.umask(0o027); from cpg_suite.harness import runs; "
+        "import os, sys; os.umask(0o027); from cpg_suite.runfiles import runs; "
         "runs.write_json(sys.argv[1], {'a': 1})"
     )
     subprocess.run([sys.executable, "-c", script, str(tmp_path / "x.json")], check=True)

@@ -7,8 +7,9 @@ import pytest
 
 from analysis import leaderboard
 from cpg_suite import cpg
-from cpg_suite.harness import interface, optimize, runs
+from cpg_suite.harness import interface, optimize
 from cpg_suite.protocol import score
+from cpg_suite.runfiles import runs
 
 cma = pytest.importorskip("cma")
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from baselines import cem
-from cpg_suite.harness import checkpoints, runs
+from cpg_suite.harness import checkpoints
+from cpg_suite.runfiles import runs
 
 
 def test_first_sample_is_the_mean():
@@ -295,7 +296,7 @@ def test_a_rounds_distances_are_logged_cheapest_first_as_the_elite_is_chosen():
 def test_a_resumed_progress_file_keeps_its_own_columns(tmp_path):
     """A run resumed from a progress.csv written before a column was added appends rows
     under the file's own header, the new column left out."""
-    from cpg_suite.harness import runs
+    from cpg_suite.runfiles import runs
 
     path = tmp_path / "progress.csv"
     with runs.ProgressCSV(str(path), ["round", "best"]) as f:

@@ -52,7 +52,7 @@ def test_cmaes_tunes_the_feedback_cpg_and_its_card_is_reproducible(tmp_path):
     import json
 
     from baselines import cmaes
-    from cpg_suite.harness import runs
+    from cpg_suite.runfiles import runs
 
     settings = cmaes.CMAESSettings(
         controller="feedback",

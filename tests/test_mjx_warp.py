@@ -243,7 +243,7 @@ def test_ppo_trains_on_warp_and_validates_on_the_cpu(tmp_path):
     """Brax's PPO through the whole chain on Warp (fresh resets, the training physics, the
     supply limit): two updates, each followed by a CPU validation of the exported policy."""
     from baselines import ppo_mjx
-    from cpg_suite.harness import runs
+    from cpg_suite.runfiles import runs
 
     settings = ppo_mjx.PPOMJXSettings(
         action_space="cpg",

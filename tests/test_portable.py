@@ -151,7 +151,7 @@ _SHORT_RUNS = r"""
 import hashlib, json, os, sys
 import numpy as np
 from baselines import cem, cmaes
-from cpg_suite.harness import exported, runs
+from cpg_suite.runfiles import exported, runs
 from cpg_suite import cpg, darwin, feedback, portable, residual
 
 def digest(arrays):

@@ -16,13 +16,14 @@ import pytest
 import cpg_suite
 from analysis import leaderboard, report
 from cpg_suite import cpg, darwin, electrical, protocol, residual, vector
-from cpg_suite.harness import exported, runs
 from cpg_suite.protocol import admission, score, verify
+from cpg_suite.runfiles import exported, runs
 
 RL = all(importlib.util.find_spec(m) for m in ("torch", "stable_baselines3"))
 if RL:  # the rl extra
     from baselines import ppo
     from cpg_suite.harness import checkpoints, learner, sb3
+    from cpg_suite.runfiles import sb3_policy
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHIPPED = os.path.join(ROOT, verify.ARTIFACTS, "ppo", "darwin_walk")
@@ -355,9 +356,9 @@ def test_the_export_is_the_torch_policy_to_float32_rounding():
     (torch, float32) on the shipped run that keeps its pickles: the same function; and
     each row's action does not depend on the rows beside it."""
     config = runs.read_json(os.path.join(WITH_PICKLES, "config.json"))
-    policy = sb3.load_shipped_policy(WITH_PICKLES, "ppo", config["settings"])
+    policy = sb3_policy.load_shipped_policy(WITH_PICKLES, "ppo", config["settings"])
     flat = 3 * np.random.default_rng(5).standard_normal((20, 42))
-    with sb3.single_threaded():
+    with sb3_policy.single_threaded():
         reference = np.concatenate(
             [sb3.predict(policy.model, policy.normalizer, r[None]) for r in flat]
         )
@@ -401,7 +402,7 @@ def test_the_export_refuses_a_policy_it_does_not_compute():
     env = sb3.normalized(sb3.FlatVecEnv(sb3.make_vector_env(_settings(), 1, threads=1)), 0.99)
     model = PPO("MlpPolicy", env, policy_kwargs={"activation_fn": torch.nn.ReLU}, n_steps=64)
     with pytest.raises(ValueError, match="Tanh"):
-        sb3.export_policy(model, env, _settings())
+        sb3_policy.export_policy(model, env, _settings())
 
 
 @pytest.mark.parametrize("name", ["cpg_v1_seed1", "joints_seed1"])

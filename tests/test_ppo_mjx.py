@@ -261,8 +261,8 @@ def test_time_to_target_reads_the_first_validation_at_the_target(tmp_path):
 
 def test_an_exported_policy_run_ships_and_verifies(tmp_path):
     """A run with `selected_policy.npz` ships and re-scores bit for bit, like an SB3 run."""
-    from cpg_suite.harness import runs
     from cpg_suite.protocol import score, verify
+    from cpg_suite.runfiles import runs
 
     settings = _settings(test_seeds=2, trial_steps=10)
     run_dir = tmp_path / "runs" / "ppo_mjx" / "darwin_walk" / "joints_seed0"
@@ -303,8 +303,8 @@ def test_an_exported_policy_run_ships_and_verifies(tmp_path):
 def test_a_zero_cpg_policy_walks_the_hand_tuned_gait_on_the_cpu():
     """Known answer: in the `cpg` space a policy that outputs 0 is the hand-tuned gait."""
     from cpg_suite import cpg
-    from cpg_suite.harness.exported import NumpyPolicy
     from cpg_suite.protocol import score
+    from cpg_suite.runfiles.exported import NumpyPolicy
 
     size = mjx_walk.WalkEnv("darwin_walk", "cpg").observation_size
     zero = NumpyPolicy(

@@ -20,8 +20,8 @@ from baselines.tabular.settings import TabularSettings
 from cpg_suite import cpg, evaluation
 from cpg_suite.evaluation import ray_backend
 from cpg_suite.evaluation.open_loop import BatchEvaluator
-from cpg_suite.harness import runs
 from cpg_suite.protocol import score
+from cpg_suite.runfiles import runs
 
 pytestmark = pytest.mark.slow  # real local Ray clusters
 

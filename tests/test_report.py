@@ -8,7 +8,7 @@ pytest.importorskip("matplotlib")
 from analysis import report
 from baselines import cem
 from baselines.tabular import runner
-from cpg_suite.harness import runs as baselines_runs
+from cpg_suite.runfiles import runs as baselines_runs
 
 
 def test_report_from_small_runs(tmp_path):

@@ -125,13 +125,13 @@ def test_a_batched_policy_keeps_its_trials_across_the_boundary(tmp_path):
     import numpy as np
 
     from cpg_suite import cpg
-    from cpg_suite.harness import exported
+    from cpg_suite.runfiles import exported
 
 
     def make_policy():
         return exported.ActionTable.from_gait(np.array(cpg.PRESETS["hand_tuned"]))
     """
-    from cpg_suite.harness import exported
+    from cpg_suite.runfiles import exported
 
     table = exported.ActionTable.from_gait(np.array(cpg.PRESETS["hand_tuned"]))
     policy = sandbox.IsolatedPolicy(_write(tmp_path, "batched.py", code))

@@ -71,7 +71,7 @@ class _OneByOne:
 
 @pytest.mark.parametrize("action_space", ["joints", "cpg"])
 def test_a_policy_scored_in_batches_gets_the_card_of_trial_by_trial(action_space):
-    from cpg_suite.harness import exported
+    from cpg_suite.runfiles import exported
 
     rng = np.random.default_rng(0)
     width = 40 + (2 if action_space == "cpg" else 0)

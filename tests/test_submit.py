@@ -12,8 +12,8 @@ import pytest
 
 from analysis import leaderboard
 from cpg_suite import cpg
-from cpg_suite.harness import exported
 from cpg_suite.protocol import admission, score, submit, verify
+from cpg_suite.runfiles import exported
 
 
 @pytest.mark.parametrize(
@@ -179,7 +179,7 @@ import os
 
 import numpy as np
 
-from cpg_suite.harness import exported
+from cpg_suite.runfiles import exported
 
 open(os.path.join(os.path.dirname(__file__), "executed"), "a").close()  # marks each run
 

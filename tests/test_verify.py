@@ -11,8 +11,8 @@ import pytest
 
 from baselines import cem
 from cpg_suite import protocol
-from cpg_suite.harness import runs
 from cpg_suite.protocol import verify
+from cpg_suite.runfiles import runs
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -45,7 +45,7 @@ from scipy import stats
 from baselines.tabular import models, planning, runner
 from baselines.tabular.settings import TabularSettings
 from cpg_suite import cli, progress
-from cpg_suite.harness import runs
+from cpg_suite.runfiles import runs
 
 
 def define_flags() -> None:

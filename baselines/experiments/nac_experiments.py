@@ -33,8 +33,8 @@ from absl import flags
 
 from baselines import nac
 from cpg_suite import cli, cpg, progress
-from cpg_suite.harness import runs
 from cpg_suite.protocol.stats import mean_std_ci95
+from cpg_suite.runfiles import runs
 
 
 def define_flags() -> None:

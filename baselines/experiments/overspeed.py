@@ -26,8 +26,8 @@ from absl import flags
 from baselines import ppo
 from cpg_suite import cli, protocol
 from cpg_suite.evaluation import gait
-from cpg_suite.harness import runs
 from cpg_suite.protocol import overspeed, score
+from cpg_suite.runfiles import runs
 
 
 @dataclasses.dataclass(frozen=True)

@@ -34,7 +34,7 @@ from absl import flags
 from baselines.tabular import runner
 from baselines.tabular.settings import TabularSettings
 from cpg_suite import cli, progress
-from cpg_suite.harness import runs
+from cpg_suite.runfiles import runs
 
 
 def define_flags() -> None:

@@ -38,7 +38,7 @@ from baselines import cem
 from baselines.tabular import models, planning
 from cpg_suite import cli, cpg, crawler, darwin, protocol, trajectories
 from cpg_suite.evaluation import gait
-from cpg_suite.harness import runs
+from cpg_suite.runfiles import runs
 
 GAMMAS = tuple(float(g) for g in np.round(np.arange(0.50, 0.96, 0.005), 3))
 PI_SEEDS = 5  # random initial policies of policy iteration

@@ -29,8 +29,8 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, protocol
-from cpg_suite.harness import runs
 from cpg_suite.protocol import score, verify
+from cpg_suite.runfiles import runs
 
 FIELDS = ("run", "config", "window_s", "tiers", "seeds", "score_m", "fall_rate", "brownout_rate")
 

@@ -25,7 +25,7 @@ from absl import flags
 from baselines.tabular import learners, models, runner
 from baselines.tabular.settings import ALGOS, DEFAULTS, POLE_REWARDS, TabularSettings
 from cpg_suite import cli
-from cpg_suite.harness import runs
+from cpg_suite.runfiles import runs
 
 # Flag help per setting: (absl definer, help). Defaults come from `TabularSettings`.
 _FLAGS = {

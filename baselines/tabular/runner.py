@@ -25,7 +25,7 @@ from baselines.tabular.settings import (  # noqa: F401  (re-exported: the runner
     default_epsilon,
 )
 from cpg_suite import crawler
-from cpg_suite.harness import runs
+from cpg_suite.runfiles import runs
 
 
 def make_learner(

@@ -1,2 +1,2 @@
-"""The run harness: run directories and the loops that take a method through training,
-validation and test (docs/architecture.md)."""
+"""The run harness: the loops that take a method through training, validation and test
+(docs/architecture.md); the run directories' files are `cpg_suite.runfiles`'."""

@@ -12,8 +12,8 @@ import os
 
 import numpy as np
 
-from cpg_suite.harness import runs
 from cpg_suite.harness.interface import Optimizer
+from cpg_suite.runfiles import runs
 
 
 class CheckpointError(Exception):

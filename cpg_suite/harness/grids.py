@@ -14,8 +14,9 @@ from collections.abc import Callable
 
 from cpg_suite import cli, progress
 from cpg_suite.evaluation import ray_backend
-from cpg_suite.harness import checkpoints, optimize, ray_tasks, runs
+from cpg_suite.harness import checkpoints, optimize, ray_tasks
 from cpg_suite.harness.interface import OptimizerSettings
+from cpg_suite.runfiles import runs
 
 
 def run_jobs(

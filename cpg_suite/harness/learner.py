@@ -16,7 +16,7 @@ which makes a leaderboard row (`analysis.leaderboard`).
 
 Run directory `<output_dir>/<method>/<task>/<run_name>/`: config.json, progress.csv,
 checkpoint.pkl, selected_model.zip + selected_vecnormalize.pkl (the reported policy; load
-with `sb3.TrainedPolicy.load`), final_model.zip + final_vecnormalize.pkl, summary.json.
+with `sb3_policy.TrainedPolicy.load`), final_model.zip + final_vecnormalize.pkl, summary.json.
 """
 
 from __future__ import annotations
@@ -36,9 +36,10 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from cpg_suite import progress, protocol
-from cpg_suite.harness import runs, sb3
+from cpg_suite.harness import sb3
 from cpg_suite.harness.checkpoints import CheckpointError, check_identity
 from cpg_suite.protocol import score
+from cpg_suite.runfiles import runs, sb3_policy
 
 PROGRESS_FIELDS = [
     "segment",
@@ -55,7 +56,7 @@ PROGRESS_FIELDS = [
 ]
 
 
-class LearnerSettings(sb3.EnvSettings, Protocol):
+class LearnerSettings(sb3_policy.EnvSettings, Protocol):
     """The settings of a policy learner's run the harness reads (a frozen dataclass: all of
     its fields are the run's identity)."""
 
@@ -155,7 +156,7 @@ def run(
         log(f"{run_dir}: already finished")
         return run_dir, runs.read_json(summary_path)
     checkpoint = _open(learner, settings, options, run_dir, name)
-    with sb3.single_threaded():
+    with sb3_policy.single_threaded():
         summary = _train_and_score(
             learner, settings, options, run_dir, checkpoint, log, on_checkpoint
         )
@@ -288,7 +289,7 @@ def _start(
         return _Training(model, normalizer, _fresh_totals(), [], None)
     normalizer = pickle.loads(checkpoint["vecnormalize"])
     normalizer.set_venv(train_env)
-    model = sb3.load_model(learner.algorithm, checkpoint["model"], normalizer)
+    model = sb3_policy.load_model(learner.algorithm, checkpoint["model"], normalizer)
     np.random.set_state(checkpoint["np_rng"])
     torch.set_rng_state(checkpoint["torch_rng"])
     return _Training(
@@ -312,7 +313,7 @@ def _train_and_score(
     on_checkpoint: Callable[[dict], None] | None,
 ) -> dict:
     """Trains to `total_steps`, writes the policies and returns the summary."""
-    sb3.import_torch()
+    sb3_policy.import_torch()
     train_env = sb3.FlatVecEnv(
         sb3.make_vector_env(settings, settings.num_envs, options.threads), settings.supply_cost
     )
@@ -321,7 +322,7 @@ def _train_and_score(
     try:
         state = _start(learner, settings, train_env, checkpoint)
         _train(state, settings, run_dir, train_env, validation_env, log, on_checkpoint)
-        final = (sb3.model_bytes(state.model), pickle.dumps(state.normalizer))
+        final = (sb3_policy.model_bytes(state.model), pickle.dumps(state.normalizer))
     finally:
         train_env.close()
         validation_env.close()
@@ -377,7 +378,7 @@ def _segment(
     physics = train_env.physics_steps - physics_before
     _add_to_totals(state.totals, k, int(state.model.num_timesteps), physics, validation, episodes)
     state.totals["wall_s"] += elapsed
-    state.saved = (sb3.model_bytes(state.model), pickle.dumps(state.normalizer))
+    state.saved = (sb3_policy.model_bytes(state.model), pickle.dumps(state.normalizer))
     _keep_best(state, validation)
     row = _progress_row(state, episodes, validation, k * settings.rollout_steps, elapsed)
     state.rows.append(row)
@@ -501,8 +502,8 @@ def _test_card(
     log: Callable[[str], None],
 ) -> dict:
     """The selected policy's score card on the test protocol (summary.json's "test")."""
-    model = sb3.load_model(learner.algorithm, best["model"])
-    policy = sb3.TrainedPolicy(model, pickle.loads(best["vecnormalize"]), settings)
+    model = sb3_policy.load_model(learner.algorithm, best["model"])
+    policy = sb3_policy.TrainedPolicy(model, pickle.loads(best["vecnormalize"]), settings)
     card = score.score_policy(
         policy,
         score.ScoreSettings(

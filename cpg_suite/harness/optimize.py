@@ -2,7 +2,7 @@
 
 A method (`baselines.cem`, `baselines.cmaes`, or a user's own ask/tell optimizer through
 `AskTell`) defines its flags with `define_flags`, starts from `start_vector`, and calls `run`:
-it opens the run directory (`cpg_suite.harness.runs`), then the round loop
+it opens the run directory (`cpg_suite.runfiles.runs`), then the round loop
 (`cpg_suite.harness.rounds`) trains, checkpoints, selects the reported gait on validation
 seeds and scores it on the test tiers.
 
@@ -24,8 +24,9 @@ from absl import flags
 
 from cpg_suite import cli, cpg, evaluation, feedback, progress
 from cpg_suite.evaluation import ray_backend
-from cpg_suite.harness import rounds, runs
+from cpg_suite.harness import rounds
 from cpg_suite.harness.interface import TASKS, Optimizer, OptimizerSettings
+from cpg_suite.runfiles import runs
 
 
 def define_flags() -> None:

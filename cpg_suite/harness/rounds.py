@@ -27,8 +27,9 @@ import numpy as np
 
 from cpg_suite import progress, protocol
 from cpg_suite.evaluation.open_loop import BatchEvaluator, BatchResult
-from cpg_suite.harness import checkpoints, runs, selection
+from cpg_suite.harness import checkpoints, selection
 from cpg_suite.harness.interface import Optimizer, OptimizerSettings
+from cpg_suite.runfiles import runs
 
 PROGRESS_FIELDS = [
     "round",

@@ -14,10 +14,10 @@ import numpy as np
 
 from cpg_suite import cpg, feedback, protocol
 from cpg_suite.evaluation.open_loop import BatchEvaluator
-from cpg_suite.harness import runs
 from cpg_suite.harness.checkpoints import RunState
 from cpg_suite.harness.interface import Optimizer, OptimizerSettings
 from cpg_suite.protocol import score
+from cpg_suite.runfiles import runs
 
 
 def validation_score(

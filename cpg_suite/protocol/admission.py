@@ -45,8 +45,8 @@ from cpg_suite.protocol import copies, sample
 
 BOARD_VERSION = protocol.BENCHMARK_VERSION  # the version the leaderboard ranks by default
 GAIT = "selected_params.json"
-EXPORTED = "selected_policy.npz"  # `cpg_suite.harness.exported.FILE`
-ACTIONS = "selected_actions.npy"  # `cpg_suite.harness.exported.ACTIONS_FILE`
+EXPORTED = "selected_policy.npz"  # `cpg_suite.runfiles.exported.FILE`
+ACTIONS = "selected_actions.npy"  # `cpg_suite.runfiles.exported.ACTIONS_FILE`
 CODE = "policy_code.py"  # a Python file defining `make_policy()` (`sandbox.load_policy_code`)
 SB3_MODEL, SB3_NORMALIZER = "selected_model.zip", "selected_vecnormalize.pkl"
 # The gait or policy files, in verify's order of precedence (the first a folder holds is

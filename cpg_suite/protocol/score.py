@@ -53,8 +53,8 @@ from cpg_suite.darwin import recording as darwin_recording
 from cpg_suite.evaluation import gait, ray_backend
 from cpg_suite.evaluation import quality as gait_quality
 from cpg_suite.evaluation.open_loop import BROWNOUT, FALL
-from cpg_suite.harness import runs
 from cpg_suite.protocol import card as card_stats
+from cpg_suite.runfiles import runs
 
 summarize = card_stats.summarize  # a tier's statistics (`cpg_suite.protocol.card`)
 MAX_SUPPLY_WINDOW = 3600.0  # s: a window longer than any trial (inf: the whole trial)
@@ -470,7 +470,7 @@ def batched_policy_trials(
 
     For a policy with `reset_batch(n)` and `act_batch(observations)` (observations of n
     trials as (n, ...) arrays → (n, 12) actions), whose rows do not depend on each other
-    (`exported.NumpyPolicy`, `sb3.TrainedPolicy`): each trial then takes the steps
+    (`exported.NumpyPolicy`, `sb3_policy.TrainedPolicy`): each trial then takes the steps
     `policy_trial` takes, and its result is the same, bit for bit (`tests/test_score.py`).
     A trial that has ended keeps its row in the batch (its last observation) but is not
     stepped. The trials are stepped in this thread: with the policy's and the task's
@@ -495,12 +495,13 @@ def batched_policy_trials(
 
 def _quality(chunks: list, physics, distance: float) -> dict:
     """The card's gait-quality measures of a trial from its control steps' chunks."""
-    columns = [np.concatenate(c) for c in zip(*chunks)] if chunks else [np.zeros((0, 20))] * 4
+    columns = [np.concatenate(c) for c in zip(*chunks)] if chunks else [np.zeros((0, 20))] * 5
     return gait_quality.measures(
         columns[0],
         columns[1],
         columns[2].reshape(-1, 2),
         columns[3].reshape(-1, 2, 3),
+        columns[4].reshape(len(columns[4]), 2, -1),
         damping=physics.servo_damping(),
         timestep=float(physics.model.opt.timestep),
         torque_limit=physics.torque_limit(),
@@ -515,6 +516,7 @@ def _record(physics) -> tuple:
         physics.servo_forces(),
         physics.foot_touch(),
         physics.sole_velocities(),
+        physics.data.sensordata[physics.sensor_slices()["footing"]].copy(),
     )
 
 

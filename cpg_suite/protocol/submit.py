@@ -12,7 +12,7 @@ In Python: `submit_gait(amplitudes, Submission(...))`, `submit_policy(NumpyPolic
 Submission(...))`, `submit_actions(table, Submission(...))` or `submit_code(path,
 Submission(...))`. Data the benchmark runs itself — the 11 CPG amplitudes
 (`selected_params.json`), an MLP exported as arrays (`selected_policy.npz`) or a table of
-actions per control step (`selected_actions.npy`, `cpg_suite.harness.exported`) — is
+actions per control step (`selected_actions.npy`, `cpg_suite.runfiles.exported`) — is
 scored by verify whenever it is asked; a policy's Python file (`policy_code.py`) is code,
 which verify executes only with `--trust_code` (docs/submit.md#data-and-code). The board
 reads no more than the run's JSON and CSV files (and an action table's `.npy` header), and
@@ -39,8 +39,8 @@ import shutil
 from absl import flags
 
 from cpg_suite import cli, cpg, protocol
-from cpg_suite.harness import exported, runs
 from cpg_suite.protocol import admission, score, verify
+from cpg_suite.runfiles import exported, runs
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
@@ -125,7 +125,7 @@ def submit_policy(policy: exported.NumpyPolicy, submission: Submission) -> str:
     """Scores a policy exported as arrays under the protocol into a run folder.
 
     Args:
-      policy: The policy (`cpg_suite.harness.exported.NumpyPolicy`: an MLP on the task's
+      policy: The policy (`cpg_suite.runfiles.exported.NumpyPolicy`: an MLP on the task's
         observation, in the "joints" or "cpg" action space).
       submission: Where the run goes and what it declares.
 

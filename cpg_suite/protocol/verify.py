@@ -26,7 +26,7 @@ behind its leaderboard row (docs/protocol.md#shipped-artifacts):
     with `best_params.json` (its best training trial's gait, in-sample) and `progress.csv`
     (its rounds); or, for a policy learner, `selected_model.zip` and
     `selected_vecnormalize.pkl` (the SB3 model and its observation normalizer), or
-    `selected_policy.npz` (a policy exported to NumPy, `cpg_suite.harness.exported`), and
+    `selected_policy.npz` (a policy exported to NumPy, `cpg_suite.runfiles.exported`), and
     `progress.csv` (its learning curve); or, for a submission (`cpg_suite.protocol.submit`),
     `selected_actions.npy` (an open-loop table of actions, `exported.ActionTable`) or
     `policy_code.py` (a Python file whose `make_policy()` returns the policy);
@@ -78,8 +78,8 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, cpg, feedback, progress, protocol
-from cpg_suite.harness import exported, runs
 from cpg_suite.protocol import admission, audit, sample, sandbox, score
+from cpg_suite.runfiles import exported, runs
 
 ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
 # Copied as they are (config.json is relocated, summary.json gets the fresh card): a gait
@@ -347,20 +347,20 @@ def shipped_policy(
         return exported.ActionTable.load(path)
     if files[0] == admission.CODE:
         return sandbox.IsolatedPolicy(path)  # its own process: it sees observations only
-    from cpg_suite.harness import sb3  # the `rl` extra: only runs of policy learners
+    from cpg_suite.runfiles import sb3_policy  # the `rl` extra: only runs of policy learners
 
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     method = os.path.basename(os.path.dirname(os.path.dirname(os.path.abspath(run_dir))))
-    return sb3.load_shipped_policy(run_dir, method, config["settings"])
+    return sb3_policy.load_shipped_policy(run_dir, method, config["settings"])
 
 
 def policy_threads(run_dir: str) -> contextlib.AbstractContextManager:
     """Single-threaded torch while a run's Stable-Baselines3 policy acts (its results then do
     not depend on threads); nothing for other runs."""
     if admission.artifact_files(run_dir) == SB3_FILES:
-        from cpg_suite.harness import sb3
+        from cpg_suite.runfiles import sb3_policy
 
-        return sb3.single_threaded()
+        return sb3_policy.single_threaded()
     return contextlib.nullcontext()
 
 

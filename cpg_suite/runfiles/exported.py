@@ -34,7 +34,7 @@ import numpy as np
 
 import cpg_suite
 from cpg_suite import cpg, darwin, portable, residual
-from cpg_suite.harness import runs
+from cpg_suite.runfiles import runs
 
 FILE = "selected_policy.npz"
 ACTIONS_FILE = "selected_actions.npy"
