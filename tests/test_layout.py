@@ -1,5 +1,6 @@
 """The layout holds: the benchmark (`cpg_suite`) imports no contestant, no contestant imports
-another, `analysis` imports no simulation code, and no module imports itself in a circle.
+another, `analysis` imports no simulation code, the protocol imports nothing of the harness,
+and no module imports itself in a circle.
 
 Every import counts, the ones inside functions too: a cycle through a deferred import is
 still a cycle in what depends on what.
@@ -142,9 +143,52 @@ def test_analysis_imports_no_simulation_code():
     assert not bad, "\n".join(bad)
 
 
+def _dynamic_imports(path: str) -> set[str]:
+    """Modules named by a constant in `importlib.import_module(...)` or `__import__(...)`."""
+    with open(path, encoding="utf-8") as f:
+        tree = ast.parse(f.read())
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and node.args:
+            func = node.func
+            name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+            first = node.args[0]
+            if name in ("import_module", "__import__") and isinstance(first, ast.Constant):
+                out.add(str(first.value))
+    return out
+
+
+def test_the_protocol_imports_nothing_of_the_harness():
+    """`protocol` (what a run is scored by) imports nothing of `harness` (what trains it),
+    and `runfiles` (the run folder's files, which both read and write) imports neither.
+    Deferred imports count, and modules named to `importlib` too."""
+    graph, known = _graph(), _modules()
+    rules = {
+        "cpg_suite.protocol": ("cpg_suite.harness",),
+        "cpg_suite.runfiles": ("cpg_suite.harness", "cpg_suite.protocol"),
+    }
+    bad = []
+    for module, edges in sorted(graph.items()):
+        for package, forbidden in rules.items():
+            if _is_within(module, package):
+                names = edges | _dynamic_imports(known[module])
+                bad += [
+                    f"{module} imports {name}"
+                    for name in sorted(names)
+                    if any(_is_within(name, f) for f in forbidden)
+                ]
+    assert not bad, "\n".join(bad)
+    # The rules see both packages and what they share.
+    assert {"cpg_suite.runfiles.runs", "cpg_suite.runfiles.exported"} <= graph[
+        "cpg_suite.protocol.verify"
+    ]
+    assert "cpg_suite.runfiles.sb3_policy" in graph["cpg_suite.protocol.verify"]  # deferred
+    assert "cpg_suite.protocol" in graph["cpg_suite.harness.sb3"]  # the intended direction
+
+
 def test_the_graph_sees_the_packages():
     graph = _graph()
-    assert "cpg_suite.harness.runs" in graph["baselines.cem"] or any(
+    assert "cpg_suite.runfiles.runs" in graph["baselines.cem"] or any(
         _is_within(n, "cpg_suite.harness") for n in graph["baselines.cem"]
     )
     assert len(graph) > 50
