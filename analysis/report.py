@@ -633,8 +633,10 @@ def check_matplotlib() -> None:
 
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
-    flags.DEFINE_string("runs", None, "Root of the run directories (an existing directory).")
-    flags.DEFINE_string("out", None, "Output folder.")
+    flags.DEFINE_string(
+        "runs", None, "none: required. Root of the run directories (an existing directory)."
+    )
+    flags.DEFINE_string("out", None, "none: required. Output folder.")
     flags.DEFINE_bool(
         "gaits", False, "Also render the hand-tuned and the best gait (needs EGL or OSMesa)."
     )

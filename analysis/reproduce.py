@@ -390,7 +390,7 @@ def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
     flags.DEFINE_bool("quick", False, "Small versions of every experiment (minutes).")
     flags.DEFINE_bool("full", False, "The real experiments (hours); give one of --quick, --full.")
-    flags.DEFINE_string("out", None, "Output folder.")
+    flags.DEFINE_string("out", None, "none: required. Output folder.")
     flags.DEFINE_integer("threads", 2, "Evaluator threads of CEM/CMA-ES.")
     flags.DEFINE_enum(
         "backend",
@@ -399,7 +399,11 @@ def define_flags() -> None:
         "ray: the runs of the CEM grid, the pole and NAC sweeps as Ray tasks, CMA-ES's "
         "trials on Ray actors (same results).",
     )
-    flags.DEFINE_string("ray_address", None, "Ray cluster: host:port, or auto.")
+    flags.DEFINE_string(
+        "ray_address",
+        None,
+        "none: a private local Ray instance per step. Ray cluster: host:port, or auto.",
+    )
     flags.DEFINE_bool(
         "gaits", None, "Render the hand-tuned and best gaits (default: with --full; --nogaits)."
     )

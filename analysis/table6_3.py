@@ -127,8 +127,12 @@ def write_table(runs: str, out: str | None = None) -> tuple[str, list[str]]:
 
 def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
-    flags.DEFINE_string("runs", None, "Root of the CEM output tree (an existing directory).")
-    flags.DEFINE_string("out", None, "Also write the table to this markdown file.")
+    flags.DEFINE_string(
+        "runs", None, "none: required. Root of the CEM output tree (an existing directory)."
+    )
+    flags.DEFINE_string(
+        "out", None, "none: print only. Also write the table to this markdown file."
+    )
 
 
 def main(argv: list[str]) -> None:

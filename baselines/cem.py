@@ -226,9 +226,16 @@ def define_flags() -> None:
     d = CEMSettings()
     flags.DEFINE_integer("elite", d.elite, "Elite samples kept per round.")
     flags.DEFINE_float("noise", d.noise, "Variance added to the covariance diagonal, deg².")
-    flags.DEFINE_enum("grid", None, ["table6_3"], "Run a whole table of settings.")
+    flags.DEFINE_enum(
+        "grid",
+        None,
+        ["table6_3"],
+        "Run a whole table of settings (default: one run, of the flags' settings).",
+    )
     flags.DEFINE_integer("seeds", 3, "--grid: seeds per setting (0..N-1).")
-    flags.DEFINE_string("settings", None, "--grid: only these settings (comma list).")
+    flags.DEFINE_string(
+        "settings", None, "none: all of the grid's. --grid: only these settings (comma list)."
+    )
 
 
 def main(argv):

@@ -98,5 +98,9 @@ def main(argv: list[str]) -> None:
 if __name__ == "__main__":
     flags.DEFINE_string("run", None, "A baselines.ppo_mjx run directory.", required=True)
     flags.DEFINE_list("reference", [], "CPU PPO run directories whose validation is the target.")
-    flags.DEFINE_float("target", None, "The target validation score, m (instead of --reference).")
+    flags.DEFINE_float(
+        "target",
+        None,
+        "none: the --reference runs' mean. The target validation score, m.",
+    )
     cli.run(main)

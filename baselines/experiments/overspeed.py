@@ -118,7 +118,9 @@ def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
     d = OverspeedSettings()
     flags.DEFINE_string("params", d.params, "Gait preset or JSON (ignored with --ppo_run).")
-    flags.DEFINE_string("ppo_run", None, "PPO run directory (its selected policy).")
+    flags.DEFINE_string(
+        "ppo_run", None, "none: the gait of --params. PPO run directory (its selected policy)."
+    )
     flags.DEFINE_string("tier", d.tier, f"Test tier: {', '.join(protocol.TIERS)}.")
     flags.DEFINE_integer("seeds", d.seeds, "Held-out test seeds.")
     flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")

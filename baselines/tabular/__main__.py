@@ -29,8 +29,8 @@ from cpg_suite.runfiles import runs
 
 # Flag help per setting: (absl definer, help). Defaults come from `TabularSettings`.
 _FLAGS = {
-    "task": ("string", "Discrete task id, e.g. pole_balance."),
-    "model": ("string", f"Tabular model: {', '.join(models.MODELS)}."),
+    "task": ("string", "none: --model instead. Discrete task id, e.g. pole_balance."),
+    "model": ("string", f"none: --task instead. Tabular model: {', '.join(models.MODELS)}."),
     "algo": ("string", f"One of: {', '.join(ALGOS)}."),
     "gamma": ("float", "Discount factor γ in [0, 1]."),
     "alpha": ("float", "Learning rate α in [0, 1] (TD learners)."),
@@ -52,7 +52,7 @@ _FLAGS = {
     "tol": ("float", "value_iteration convergence tolerance."),
     "slip": ("float", "Model: probability that a move does not happen."),
     "bins": ("string", "Pole: ANGLExVELOCITY bins (20x20) or ANGLE (100)."),
-    "force": ("float", "Pole: push force, N (task default 0.5)."),
+    "force": ("float", "none: the task's, 0.5 N. Pole: push force, N."),
     "actions": ("integer", "Pole: 3 for {-F, 0, +F}, 2 for {-F, +F}."),
     "reward": (list(POLE_REWARDS), "Pole reward variant."),
     "seed": ("integer", "Random seed (initial states, exploration, ties)."),
@@ -78,7 +78,9 @@ def define_flags() -> None:
             flags.DEFINE_enum(name, DEFAULTS[name], kind, help_text)
         else:
             getattr(flags, f"DEFINE_{kind}")(name, DEFAULTS[name], help_text)
-    flags.DEFINE_integer("moves", None, "Crawler: learning moves (same as --steps).")
+    flags.DEFINE_integer(
+        "moves", None, "none: --steps. Crawler: learning moves (its name for --steps)."
+    )
 
 
 def main(argv: list[str]) -> None:
