@@ -11,7 +11,7 @@ import pytest
 
 from baselines import cem
 from cpg_suite import protocol
-from cpg_suite.protocol import verify
+from cpg_suite.protocol import admission, verify
 from cpg_suite.runfiles import runs
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -94,6 +94,24 @@ def test_update_card_restores_a_card_only_while_the_trials_hold(shipped, tmp_pat
     with pytest.raises(ValueError, match="its trials changed"):
         verify.update_card(str(copy))
     assert (copy / "summary.json").read_text() == stored
+
+
+def test_update_cards_records_each_stored_card_in_the_ledger(shipped, tmp_path):
+    """`--update_cards --record`: a run whose card is stored is recorded as re-scored in full,
+    with the digest of its files as they are after the update (not before)."""
+    _, dest = shipped
+    (tmp_path / "cem" / "darwin_walk").mkdir(parents=True)
+    copy = _copy(dest, tmp_path / "cem" / "darwin_walk" / "run_seed0")
+    summary = json.loads((copy / "summary.json").read_text())
+    del summary["test"]["all"]["quality"]["energy_per_m"]  # a card older than a measure
+    (copy / "summary.json").write_text(json.dumps(summary))
+    old_digest = admission.run_digest(str(copy))
+    ledger = str(tmp_path / "rescored.csv")
+    verify.update_cards([str(copy)], threads=1, record=ledger)
+    assert verify.verify_run(str(copy)) == []
+    row = admission.read_ledger(ledger)[admission.run_key(str(copy))]
+    assert (row["check"], row["result"]) == ("full", "reproduced")
+    assert row["files_sha256"] == admission.run_digest(str(copy)) != old_digest
 
 
 def test_rescore_run_stores_the_trials_and_card_the_code_gives_now(shipped, tmp_path):

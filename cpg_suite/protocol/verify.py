@@ -1010,7 +1010,9 @@ def _maintain(values: flags.FlagValues) -> bool:
 
     Every run it will change is checked first (admitted as verify admits runs, and its
     policy loadable under the trust given); one that is not stops it before any file is
-    written. `--update_cards` then scores every run before it stores any card.
+    written. `--update_cards` then scores every run before it stores any card; with
+    `--record`, each run whose card it stores is recorded as re-scored in full (its trials
+    reproduced bit for bit, its files as they are now).
 
     Args:
       values: The parsed flags.
@@ -1048,14 +1050,37 @@ def _maintain(values: flags.FlagValues) -> bool:
             if upgrade_run(run_dir, values.upgrade_to, values.threads, values.trust_code, trusted):
                 progress.write(f"upgraded to version {values.upgrade_to}: {run_dir}")
     else:
-        cards = [
-            (run_dir, fresh_card(run_dir, values.threads, values.trust_code, trusted))
-            for run_dir in run_dirs
-        ]
-        for run_dir, card in cards:
-            _store_card(run_dir, card)
-            progress.write(f"card updated: {run_dir}")
+        update_cards(run_dirs, values.threads, values.trust_code, trusted, values.record)
     return True
+
+
+def update_cards(
+    run_dirs: list[str],
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+    record: str | None = None,
+) -> None:
+    """Re-scores every run, then stores each one's new card (`update_card`, all or nothing).
+
+    Args:
+      run_dirs: Shipped runs.
+      threads: Evaluator threads.
+      trust_code: Whether a policy that is code may run (`code_refusal`).
+      trusted: The trusted pickles' digests (None: the package's list).
+      record: A ledger (`write_ledger`; None: none): each run whose card is stored is
+        recorded as re-scored in full (its trials reproduced, its files as they are now).
+
+    Raises:
+      ValueError: If a run's trials differ from its `trials.csv` (no card is written then).
+      UntrustedCode: If a policy is code not trusted (nothing is loaded or written).
+    """
+    cards = [(run_dir, fresh_card(run_dir, threads, trust_code, trusted)) for run_dir in run_dirs]
+    for run_dir, card in cards:
+        _store_card(run_dir, card)
+        if record:
+            write_ledger(record, {run_dir: []})
+        progress.write(f"card updated: {run_dir}")
 
 
 def _check_all(run_dirs: list[str], trust_code: bool, trusted: frozenset[str], admit: bool) -> None:
