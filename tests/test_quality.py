@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cpg_suite import electrical
-from cpg_suite.evaluation import quality
+from cpg_suite.evaluation import footing, quality
 
 TIMESTEP = 0.002  # s
 MASS = 2.0  # kg
@@ -23,6 +23,7 @@ def _trial(joint_velocity, torque, distance=1.0):
         np.hstack([np.asarray(torque, float).reshape(steps, -1), idle]),
         np.full((steps, 2), WEIGHT),  # both soles in stance
         np.zeros((steps, 2, 3)),
+        np.zeros((steps, 2, footing.FOOT_WIDTH)),  # no floor contacts recorded
         damping=np.full(20, DAMPING),
         timestep=TIMESTEP,
         torque_limit=2.5,
@@ -74,3 +75,9 @@ def test_servos_at_their_no_load_speed_draw_standby_only():
 def test_every_field_is_measured():
     m = _trial(np.zeros((3, 12)), np.zeros((3, 12)))
     assert tuple(m) == quality.FIELDS
+    # The footing measures follow the older ones, which keep their places (the cards'
+    # history); without floor contacts: no slip, no stance, no swing.
+    assert quality.FIELDS[-len(footing.FIELDS) :] == footing.FIELDS
+    assert quality.FIELDS[:2] == ("cost_of_transport", "slip_per_m")
+    assert m["contact_slip_per_m"] == 0.0
+    assert all(np.isnan(m[f]) for f in footing.FIELDS[1:])

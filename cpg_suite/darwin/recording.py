@@ -138,7 +138,7 @@ def sensor_steps(physics: mujoco.Physics) -> tuple[np.ndarray, ...]:
 
     Returns:
       Copies: the servos' joint velocities and forces (n, 20), the soles' touch (n, 2) and
-      velocities (n, 6).
+      velocities (n, 6), and the feet's footing sensors (n, 2 × `footing.FOOT_WIDTH`).
     """
     r = physics._recording
     readings, s = r.sensors, r.slices
@@ -147,6 +147,7 @@ def sensor_steps(physics: mujoco.Physics) -> tuple[np.ndarray, ...]:
         readings[:, s["servo_forces"]].copy(),
         readings[:, s["foot_touch"]].copy(),
         readings[:, s["sole_velocities"]].copy(),
+        readings[:, s["footing"]].copy(),
     )
 
 

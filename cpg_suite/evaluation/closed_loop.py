@@ -224,6 +224,7 @@ class FeedbackEvaluator:
                 data.sensordata[s["servo_forces"]],
                 data.sensordata[s["foot_touch"]],
                 data.sensordata[s["sole_velocities"]],
+                data.sensordata[s["footing"]],
             ]
         )
 
@@ -245,12 +246,13 @@ class FeedbackEvaluator:
         s, n = self._sensors, len(self._servo_dofs)
         width = n + sum(s[k].stop - s[k].start for k in RECORDED_SENSORS)
         record = np.array(trial.record) if trial.record else np.zeros((0, width))
-        force, touch, sole = np.split(record[:, n:], [n, n + 2], axis=1)
+        force, touch, sole, feet = np.split(record[:, n:], [n, n + 2, n + 8], axis=1)
         return gait_quality.measures(
             record[:, :n],
             force,
             touch,
             sole.reshape(-1, 2, 3),
+            feet.reshape(len(feet), 2, -1),
             damping=trial.model.dof_damping[self._servo_dofs],
             timestep=float(trial.model.opt.timestep),
             torque_limit=float(trial.model.actuator_forcerange[0, 1]),

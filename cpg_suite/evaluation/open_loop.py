@@ -57,7 +57,7 @@ class Episode:
 
 # The sensors a trial records for its gait measures and its electrical load, in the
 # record's order (after the 20 servos' joint velocities).
-RECORDED_SENSORS = ("servo_forces", "foot_touch", "sole_velocities")
+RECORDED_SENSORS = ("servo_forces", "foot_touch", "sole_velocities", "footing")
 # Why a trial ended early (`BatchResult.cause`): 0 it did not, else 1 + the index in
 # `electrical.CAUSES` (1 a fall or a divergent simulation, 2 a brown-out).
 FALL, BROWNOUT = 1 + electrical.CAUSES.index("fall"), 1 + electrical.CAUSES.index("brownout")
@@ -276,13 +276,14 @@ class BatchEvaluator:
         record = np.concatenate(trace) if trace else np.zeros((0, self._record_width()))
         width = len(self._servo_qvel)
         widths = [self._sensors[k].stop - self._sensors[k].start for k in self._sensors]
-        force, touch, sole = np.split(record[:, width:], np.cumsum(widths)[:-1], axis=1)
+        force, touch, sole, feet = np.split(record[:, width:], np.cumsum(widths)[:-1], axis=1)
         model = episode.model
         return gait_quality.measures(
             record[:, :width],
             force,
             touch,
             sole.reshape(-1, 2, 3),
+            feet.reshape(len(feet), 2, -1),
             damping=model.dof_damping[self._servo_dofs],
             timestep=float(model.opt.timestep),
             torque_limit=float(model.actuator_forcerange[0, 1]),

@@ -4,7 +4,8 @@ Both evaluation paths (the batched `mujoco.rollout` evaluator and the step-by-st
 scorer) collect, after every physics step up to the end of the trial (its time limit, fall
 or brown-out), the 20 servos' joint velocities and forces (`actuatorfrc` sensors; the legs'
 are the first 12, in `cpg.LEG_JOINTS` order), the two sole touch forces and the two soles'
-velocities, then call `measures` on the arrays: the same inputs give the same numbers.
+velocities, and each foot's floor contacts and sole pose (`footing`), then call
+`measures` on the arrays: the same inputs give the same numbers.
 
 * cost of transport: positive mechanical work of the leg servos, Σ max(0, τ·q̇) Δt, divided
   by m·g·distance (NaN for a distance under 5 cm, where it means nothing);
@@ -21,7 +22,11 @@ velocities, then call `measures` on the arrays: the same inputs give the same nu
   from all 20 servos' forces and joint velocities: mean supply current, A, and its worst
   1 s window; mean supply power, W (12 V × current), and supply energy per metre, J/m;
   the most loaded servo's RMS torque over its stall torque, and its mean copper loss over
-  its stall copper loss (16.8 W; both 1 at a servo held stalled).
+  its stall copper loss (16.8 W; both 1 at a servo held stalled);
+* how the feet meet the floor (`cpg_suite.evaluation.footing`, issue 54): slip at the
+  floor contacts per metre (a foot rolling about an edge does not count, as it does in
+  `slip_per_m`), the share of stance with the sole flat, the swing sole's clearance, and
+  the shares of touchdowns that are toe and heel strikes.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from cpg_suite import electrical, portable
+from cpg_suite.evaluation import footing
 
 MX28_NO_LOAD_SPEED = electrical.NO_LOAD_SPEED  # rad/s at 12 V: 55 rpm.
 GRAVITY = 9.81  # m/s²
@@ -39,7 +45,8 @@ _LIMIT_FRACTION = 0.99  # of the torque limit: a servo at or above it is saturat
 N_LEGS = 12  # the leg servos: the first 12 of the 20
 PEAK_WINDOW = electrical.SupplyLimit(window=1.0)  # the card's worst-window supply current
 
-# The robot's electrical load (`_electrical`), the last of `FIELDS`.
+# The robot's electrical load (`_electrical`), then how the feet meet the floor
+# (`footing.FIELDS`, added in issue 54): the last of `FIELDS`.
 ELECTRICAL_FIELDS = (
     "electrical_power_w",
     "energy_per_m",
@@ -58,6 +65,7 @@ FIELDS = (
     "over_speed_motor_share",
     "over_speed_external_share",
     *ELECTRICAL_FIELDS,
+    *footing.FIELDS,
 )
 
 
@@ -82,6 +90,7 @@ def measures(
     servo_force: np.ndarray,
     touch: np.ndarray,
     sole_velocity: np.ndarray,
+    feet: np.ndarray,
     *,
     damping: np.ndarray,
     timestep: float,
@@ -97,6 +106,8 @@ def measures(
       servo_force: (T, 20) the servos' forces, N·m.
       touch: (T, 2) normal force on the (left, right) soles, N.
       sole_velocity: (T, 2, 3) sole velocities in the world frame, m/s.
+      feet: (T, 2, `footing.FOOT_WIDTH`) the (left, right) feet's footing sensors (floor
+        contacts, sole pose: `darwin.robot.sensor_slices`' "footing").
       damping: (20,) the servos' joint damping in this episode, N·m·s/rad.
       timestep: Physics step, s.
       torque_limit: The servos' torque limit in this episode, N·m.
@@ -135,6 +146,14 @@ def measures(
         "supply_peak_1s_a": load["peak"],
         "rms_torque_ratio": load["rms_torque"],
         "copper_loss_ratio": load["copper"],
+        **footing.measures(
+            sole_velocity,
+            feet,
+            stance_force=_STANCE_FRACTION * weight,
+            timestep=timestep,
+            distance=distance,
+            min_distance=MIN_DISTANCE,
+        ),
     }
 
 

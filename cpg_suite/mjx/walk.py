@@ -251,7 +251,8 @@ class WalkEnv:
     @staticmethod
     def _physics_model(settings: PhysicsSettings) -> mujoco.MjModel:
         """The DARwIn-OP model with a physics' contacts, solver caps and timestep."""
-        m = mujoco.MjModel.from_xml_string(*darwin.get_model_and_assets())
+        xml, assets = darwin.get_model_and_assets()
+        m = mujoco.MjModel.from_xml_string(darwin.robot.for_mjx(xml), assets)
         if settings.solver_iterations is not None:
             m.opt.iterations, m.opt.ls_iterations = settings.solver_iterations
         if settings.contacts == "soles":

@@ -641,8 +641,9 @@ REAL_ROBOT_SPEED = 0.214  # m/s: a ROBOTIS OP2 walking 3 m in 14 s (docs/darwin_
 
 
 def format_card(card: dict) -> str:
-    """The card as a fixed-width table, one line per tier and one for all tiers; the first
-    line says so when the card is not the protocol's (`card.card_deviations`)."""
+    """The card as a fixed-width table, one line per tier and one for all tiers, then the
+    feet's measures (`footing`) in a second table; the first line says so when the card is
+    not the protocol's (`card.card_deviations`)."""
     deviations = card_stats.card_deviations(card)
     marking = f"NOT A PROTOCOL CARD ({'; '.join(deviations)}); " if deviations else ""
     lines = [
@@ -665,6 +666,23 @@ def format_card(card: dict) -> str:
             f"{_fmt(q['over_speed_share'], '.1%'):>9} {_fmt(q.get('supply_current_a'), '.2f'):>5} "
             f"{_fmt(q.get('supply_peak_1s_a'), '.2f'):>5} "
             f"{_fmt(q['electrical_power_w'], '.1f'):>6} {_fmt(q['energy_per_m'], '.0f'):>6}"
+        )
+    if "contact_slip_per_m" not in card["all"]["quality"]:  # a card made before them
+        return "\n".join(lines)
+    # How the feet meet the floor (`footing`).
+    lines.append(
+        f"{'feet on the floor':<24} {'contact slip/m':>14} {'flat stance':>11} "
+        f"{'swing clearance mm':>18} {'toe strikes':>11} {'heel strikes':>12}"
+    )
+    for name, row in [*card["tiers"].items(), ("all", card["all"])]:
+        q = row["quality"]
+        clearance = q.get("swing_clearance_m")
+        lines.append(
+            f"{name:<24} {_fmt(q.get('contact_slip_per_m')):>14} "
+            f"{_fmt(q.get('flat_stance_share'), '.1%'):>11} "
+            f"{_fmt(None if clearance is None else 1000 * clearance, '.1f'):>18} "
+            f"{_fmt(q.get('toe_strike_share'), '.1%'):>11} "
+            f"{_fmt(q.get('heel_strike_share'), '.1%'):>12}"
         )
     return "\n".join(lines)
 
