@@ -285,6 +285,13 @@ QUALITY = (
     "supply_peak_1s_a",
     "rms_torque_ratio",
     "copper_loss_ratio",
+    # How the feet meet the floor (`cpg_suite.evaluation.footing.FIELDS`, named here:
+    # analysis imports no simulation code; tests/test_leaderboard.py keeps them equal).
+    "contact_slip_per_m",
+    "flat_stance_share",
+    "swing_clearance_m",
+    "toe_strike_share",
+    "heel_strike_share",
 )
 # Budget tracks (docs/protocol.md#ranking): the study's budget is at most 2,501 training
 # trials (K = 50 for 50 rounds, plus the start) or 2.5 M training control steps (PPO).

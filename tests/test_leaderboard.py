@@ -6,7 +6,7 @@ import json
 import pytest
 
 from analysis import leaderboard, published
-from cpg_suite.evaluation import quality
+from cpg_suite.evaluation import footing, quality
 
 
 def _run(root, method, task, name, summary):
@@ -146,6 +146,7 @@ def test_a_learner_is_on_the_track_of_the_budget_it_was_given(tmp_path):
 def test_board_shows_card_quality_fields_and_every_electrical_one():
     assert set(leaderboard.QUALITY) <= set(quality.FIELDS)
     assert set(quality.ELECTRICAL_FIELDS) <= set(leaderboard.QUALITY)
+    assert set(footing.FIELDS) <= set(leaderboard.QUALITY)
 
 
 def test_a_configuration_trained_under_an_earlier_version_is_listed_not_ranked(tmp_path):
