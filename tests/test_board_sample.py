@@ -15,13 +15,13 @@ RUNS = os.path.join(ROOT, "results", "protocol", "runs")
 GAIT_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed0")
 
 
-@pytest.mark.slow  # 98 runs × 20 trials: about 10 CPU-minutes, 5 on 2 cores
+@pytest.mark.slow  # 103 runs × 20 trials: about 10 CPU-minutes, 5 on 2 cores
 def test_every_admitted_run_reproduces_a_fresh_sample_of_its_trials():
     logged = []
     failed = verify.verify(RUNS, log=logged.append, jobs=2, sample_trials=20)
     # On a failure, the first line gives --entropy to replay the same draw.
     assert failed == 0, "\n".join([logged[0], *(line for line in logged if "ok" not in line)])
-    assert logged[-1] == "98 of 98 shipped runs, 20 random trials each, reproduced bit for bit"
+    assert logged[-1] == "103 of 103 shipped runs, 20 random trials each, reproduced bit for bit"
 
 
 def test_the_ledger_counts_a_run_only_while_its_files_are_those_it_checked(tmp_path):
