@@ -274,6 +274,11 @@ class Physics(mujoco.Physics):
         """Normal force on the (left, right) sole touch sensors, N."""
         return self._sensordata[self._sensors["foot_touch"]].copy()
 
+    def footing_sensors(self) -> np.ndarray:
+        """The feet's footing sensors (`robot.FOOTING_SENSORS`: each foot's floor contacts,
+        then its sole's angular velocity, centre and axes), as one row, left foot first."""
+        return self._sensordata[self._sensors["footing"]].copy()
+
     def sole_velocities(self) -> np.ndarray:
         """(2, 3) linear velocities of the (left, right) sole centres in the world, m/s."""
         return self._sensordata[self._sensors["sole_velocities"]].reshape(2, 3).copy()

@@ -516,7 +516,7 @@ def _record(physics) -> tuple:
         physics.servo_forces(),
         physics.foot_touch(),
         physics.sole_velocities(),
-        physics.data.sensordata[physics.sensor_slices()["footing"]].copy(),
+        physics.footing_sensors(),
     )
 
 
