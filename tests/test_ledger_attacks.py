@@ -1,0 +1,108 @@
+"""Attacks on the re-score ledger: a run whose files were edited may not be shown as
+re-scored in full, whether edited before `update_cards` or after its row was written."""
+
+import json
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+from cpg_suite.protocol import admission, verify
+
+SHIPPED = os.path.join("results", "protocol", "runs", "cem", "darwin_walk", "K50_n0.8_e2_seed0")
+
+
+def _copy(tmp_path, name="X_seed0"):
+    if not os.path.isdir(SHIPPED):
+        pytest.skip("no shipped run")
+    run_dir = tmp_path / "cem" / "darwin_walk" / name
+    shutil.copytree(SHIPPED, run_dir)
+    return str(run_dir)
+
+
+def _edit_trials(run_dir):
+    path = os.path.join(run_dir, "trials.csv")
+    with open(path, encoding="utf-8") as f:
+        lines = f.read().splitlines(keepends=True)
+    fields = lines[1].split(",")
+    fields[2] = str(float(fields[2]) + 0.5)  # distance_m of the first trial
+    lines[1] = ",".join(fields)
+    with open(path, "w", encoding="utf-8") as f:
+        f.writelines(lines)
+
+
+def _edit_gait(run_dir):
+    path = os.path.join(run_dir, admission.GAIT)
+    with open(path, encoding="utf-8") as f:
+        gait = json.load(f)
+    gait["amplitudes"]["knee"] *= 1.2
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(gait, f)
+
+
+def _ledger_row(tmp_path, run_dir):
+    ledger = str(tmp_path / "rescored.csv")
+    verify.write_ledger(ledger, {run_dir: []})  # as update_cards writes it
+    return ledger
+
+
+@pytest.mark.parametrize("edit", [_edit_trials, _edit_gait], ids=["trials", "gait"])
+def test_row_does_not_survive_a_later_edit(tmp_path, edit):
+    run_dir = _copy(tmp_path)
+    ledger = _ledger_row(tmp_path, run_dir)
+    assert admission.rescored_in_full(run_dir, admission.read_ledger(ledger))
+    edit(run_dir)
+    assert admission.rescored_in_full(run_dir, admission.read_ledger(ledger)) is None
+
+
+def test_row_does_not_survive_a_card_edit(tmp_path):
+    run_dir = _copy(tmp_path)
+    ledger = _ledger_row(tmp_path, run_dir)
+    path = os.path.join(run_dir, "summary.json")
+    with open(path, encoding="utf-8") as f:
+        summary = json.load(f)
+    summary["test"]["edited"] = 1
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(summary, f)
+    assert admission.rescored_in_full(run_dir, admission.read_ledger(ledger)) is None
+
+
+def test_row_does_not_survive_a_new_artifact_that_outranks_the_gait(tmp_path):
+    """A policy file verify would score before the gait, dropped in after the row."""
+    run_dir = _copy(tmp_path)
+    ledger = _ledger_row(tmp_path, run_dir)
+    np.save(os.path.join(run_dir, admission.ACTIONS), np.zeros((3, 2)))
+    assert admission.rescored_in_full(run_dir, admission.read_ledger(ledger)) is None
+
+
+def test_row_is_keyed_to_its_own_run(tmp_path):
+    run_dir = _copy(tmp_path)
+    other = _copy(tmp_path, "Y_seed0")
+    ledger = _ledger_row(tmp_path, run_dir)
+    assert admission.rescored_in_full(other, admission.read_ledger(ledger)) is None
+
+
+def test_sampled_or_differing_rows_are_not_full(tmp_path):
+    run_dir = _copy(tmp_path)
+    ledger = str(tmp_path / "rescored.csv")
+    verify.write_ledger(ledger, {run_dir: []}, sample_trials=5)
+    assert admission.rescored_in_full(run_dir, admission.read_ledger(ledger)) is None
+    verify.write_ledger(ledger, {run_dir: ["trial 0 differs"]})
+    assert admission.rescored_in_full(run_dir, admission.read_ledger(ledger)) is None
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("edit", [_edit_trials, _edit_gait], ids=["trials", "gait"])
+def test_update_cards_refuses_an_edited_run(tmp_path, edit):
+    """Re-scores a full run (~1-2 min): an edited run gets no card and no ledger row."""
+    run_dir = _copy(tmp_path)
+    edit(run_dir)
+    with open(os.path.join(run_dir, "summary.json"), "rb") as f:
+        summary = f.read()
+    ledger = str(tmp_path / "rescored.csv")
+    with pytest.raises(ValueError, match="trials changed"):
+        verify.update_cards([run_dir], threads=1, record=ledger)
+    assert admission.read_ledger(ledger) == {}
+    with open(os.path.join(run_dir, "summary.json"), "rb") as f:
+        assert f.read() == summary
