@@ -23,7 +23,6 @@ import os
 
 from absl import flags
 
-from baselines import ppo
 from cpg_suite import cli, protocol
 from cpg_suite.evaluation import gait
 from cpg_suite.protocol import overspeed, score
@@ -71,6 +70,8 @@ def load_policy(settings: OverspeedSettings):
       ValueError, OSError: On a gait or run that cannot be read.
     """
     if settings.ppo_run is not None:
+        from baselines import ppo  # the rl extra (torch): only a PPO run needs it
+
         return ppo.load_policy(settings.ppo_run)
     return score.OpenLoopPolicy(gait.parse_params(settings.params), settings.steps)
 
@@ -119,7 +120,9 @@ def define_flags() -> None:
     d = OverspeedSettings()
     flags.DEFINE_string("params", d.params, "Gait preset or JSON (ignored with --ppo_run).")
     flags.DEFINE_string(
-        "ppo_run", None, "none: the gait of --params. PPO run directory (its selected policy)."
+        "ppo_run",
+        None,
+        "none: the gait of --params. PPO run directory (its selected policy; the rl extra).",
     )
     flags.DEFINE_string("tier", d.tier, f"Test tier: {', '.join(protocol.TIERS)}.")
     flags.DEFINE_integer("seeds", d.seeds, "Held-out test seeds.")
