@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import csv
 
-TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
+from cpg_suite.protocol import TIERS
+
 METHODS = {
     "cem": "CEM K = 50, the main job",
     "cmaes": "CMA-ES K = 50",
@@ -20,8 +21,8 @@ METHODS = {
 TRAINING = {"darwin_walk": "nominal", "darwin_walk_randomized": "randomized"}
 HEADER = (
     "| track | rank | method (training tier) | seeds | IQM [95 % CI] | mean [95 % CI] | m/s "
-    "| failures (brown-outs) | A, worst 1 s | nominal | randomized | push | rough "
-    "| P(improvement over next) [95 % CI] | re-scored in full |\n" + "|---" * 15 + "|"
+    "| failures (brown-outs) | A, worst 1 s | nominal | randomized | push | rough | contact "
+    "| P(improvement over next) [95 % CI] | re-scored in full |\n" + "|---" * 16 + "|"
 )
 
 
@@ -63,6 +64,13 @@ def _rescored(row: dict) -> str:
     return f"{runs}, {row['rescored_full_on']}" if row.get("rescored_full_on") else runs
 
 
+def _tier(row: dict, tier: str) -> str:
+    """A tier's cell: its score and failure share ("—" where the row's cards lack it)."""
+    if row[f"{tier}_score_m"] in ("", None):
+        return "—"
+    return f"{_f(row[f'{tier}_score_m'])}, {100 * float(row[f'{tier}_fall_rate']):.0f}%"
+
+
 def markdown_row(row: dict) -> str:
     """One configuration's table row."""
     iqm = (
@@ -76,7 +84,7 @@ def markdown_row(row: dict) -> str:
         f"({100 * float(row['test_brownout_rate'] or 0):.1f}%)"
     )
     supply = f"{_f(row['supply_current_a'], 1)}, {_f(row['supply_peak_1s_a'], 1)}"
-    tiers = [f"{_f(row[f'{t}_score_m'])}, {100 * float(row[f'{t}_fall_rate']):.0f}%" for t in TIERS]
+    tiers = [_tier(row, t) for t in TIERS]
     cells = [
         row["track"],
         _rank(row),

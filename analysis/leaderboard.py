@@ -23,7 +23,7 @@ study's claims are judged in one place, `python -m analysis.study` (results/stud
 from __future__ import annotations
 
 if __name__ == "__main__":  # this program never renders: no OpenGL backend, no GLFW warning
-    from cpg_suite import cli
+    from cpg_suite import cli, protocol
 
     cli.without_rendering()
 
@@ -41,7 +41,7 @@ import numpy as np
 from absl import flags
 
 from analysis import published
-from cpg_suite import cli
+from cpg_suite import cli, protocol
 from cpg_suite.protocol import admission, aggregate
 from cpg_suite.protocol.stats import mean_std_ci95
 
@@ -270,7 +270,7 @@ def leaderboard_rows(found: list[dict]) -> list[dict]:
     return rows
 
 
-TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
+TIERS = protocol.TIERS  # every version's tiers; a board of version v ranks `protocol.tiers(v)`
 # The card's gait-quality fields shown on the board (cpg_suite.evaluation.quality.FIELDS
 # defines them; analysis imports no simulation-side module, so tests/test_leaderboard.py
 # checks that these are its names and that every electrical field is shown).
@@ -379,11 +379,12 @@ def budget_track(summaries: list[dict]) -> str:
 
 def _status(track: str, trained: int | None, version: int, complete: bool) -> str:
     """A configuration's standing on the board of `version` (docs/protocol.md#ranking):
-    "reference" (a preset: no training), "trained_v<n>" (trained under an earlier version:
-    listed, not ranked), "ranked" (at least `MIN_SEEDS` seeds, every tier), "provisional"."""
+    "reference" (a preset: no training), "trained_v<n>" (trained under an earlier version
+    of other training physics, `protocol.trained_alike`: listed, not ranked), "ranked" (at
+    least `MIN_SEEDS` seeds, every tier), "provisional"."""
     if not track:
         return "reference"
-    if trained is not None and trained != version:
+    if trained is not None and protocol.trained_alike(trained) != protocol.trained_alike(version):
         return f"trained_v{trained}"
     return "ranked" if complete else "provisional"
 
@@ -403,7 +404,8 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
     tests = [s["test"] for s in summaries]
     overall = _test_score(tests)
     track = budget_track(summaries)
-    complete = len(summaries) >= MIN_SEEDS and all(set(TIERS) <= set(t["tiers"]) for t in tests)
+    tiers = protocol.tiers(version)
+    complete = len(summaries) >= MIN_SEEDS and all(set(tiers) <= set(t["tiers"]) for t in tests)
     status = _status(track, trained, version, complete)
     ranked = status == "ranked"
     row = {
@@ -411,7 +413,7 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
         "trained_version": "" if trained is None else trained,
         "track": track,
         "status": status,
-        "_scores": score_matrix(tests) if ranked else None,
+        "_scores": score_matrix(tests, tiers) if ranked else None,
         "training_task": task,
         "method": method,
         "config": config,

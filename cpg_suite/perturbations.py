@@ -7,6 +7,8 @@ was tuned on the nominal model (docs/protocol.md gives every range and its reaso
   torque limit, joint damping, ground friction, torso mass and centre of mass, and a larger
   perturbation of the initial posture.
 * `Pushes` — horizontal pushes on the torso at random moments and in random directions.
+* `Contact` — the floor contact: the friction of floor and soles and the contact's time
+  constant (its softness), drawn per episode over ranges real floors and soles span.
 * `Terrain` — uneven ground: square tiles raised by random heights above the floor plane.
   With `max_height = 0` the tiles lie below the plane and never touch the robot, so the
   zero-height control is the plane itself, bit for bit (tested).
@@ -17,6 +19,7 @@ Every draw comes from the task's `random` (a `np.random.RandomState`), once per 
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -76,6 +79,48 @@ class Randomization:
             "torso_mass_scale": random.uniform(*self.torso_mass_scale),
             "torso_com_shift": random.uniform(-self.torso_com_shift, self.torso_com_shift, 2),
         }
+
+
+@dataclasses.dataclass(frozen=True)
+class Contact:
+    """Ranges of the contact tier (`darwin_walk_contact`, benchmark version 3), drawn once
+    per episode; docs/contact.md#the-contact-tier gives the sources.
+
+    Attributes:
+      friction: Sliding friction of the floor and the soles, uniform: 0.4-1.0 is MuJoCo
+        Playground's sim-to-real range for the ROBOTIS OP3 (DARwIn-OP's successor); measured
+        indoor floors' means lie at 0.80-0.97 (s.d. to 0.15), grass at 0.53. The model's
+        nominal is 1.0.
+      time_constant: The floor contact's time constant (MuJoCo `solref[0]` of floor and
+        soles, so of their contact), s, log-uniform: from 4 ms (MuJoCo Menagerie's OP3) to
+        20 ms (MuJoCo's default); the model's nominal contact mixes the soles' 8 ms with
+        the floor's 20 ms into 14 ms. Stiffer than 4 ms is not possible at the 2 ms step:
+        MuJoCo's `refsafe` (on by default) raises a time constant to twice the timestep.
+    """
+
+    friction: tuple[float, float] = (0.4, 1.0)
+    time_constant: tuple[float, float] = (0.004, 0.020)
+
+    def __post_init__(self):
+        low, high = self.time_constant
+        if not 0.0 < low <= high or not 0.0 < self.friction[0] <= self.friction[1]:
+            raise ValueError(
+                f"contact ranges must be positive and ordered, got friction {self.friction}, "
+                f"time_constant {self.time_constant}"
+            )
+
+    def sample(self, random: np.random.RandomState) -> dict:
+        """One episode's contact: `friction` and `time_constant` (s), in that order of draws.
+
+        The time constant is `low · exp(u · ln(high/low))`, u ~ U(0, 1), with `portable.exp`
+        and the logarithm rounded to 12 significant digits (libm's last bit may depend on
+        the CPU; the draw may not).
+        """
+        friction = random.uniform(*self.friction)
+        low, high = self.time_constant
+        log_ratio = float(f"{math.log(high / low):.12g}")
+        time_constant = low * float(portable.exp(random.uniform(0.0, 1.0) * log_ratio))
+        return {"friction": friction, "time_constant": time_constant}
 
 
 @dataclasses.dataclass(frozen=True)

@@ -106,3 +106,34 @@ def test_update_cards_refuses_an_edited_run(tmp_path, edit):
     assert admission.read_ledger(ledger) == {}
     with open(os.path.join(run_dir, "summary.json"), "rb") as f:
         assert f.read() == summary
+
+
+@pytest.mark.parametrize("call", ["update_cards", "upgrade_run"])
+def test_maintenance_calls_refuse_what_the_board_refuses(tmp_path, call):
+    """As library calls, not only through the CLI: a run the board refuses (a copy shipped
+    as a second seed; a run whose card was edited) gets no card and no ledger row, and
+    nothing is scored first (this test scores nothing: it takes seconds)."""
+    first, second = _copy(tmp_path, "X_seed0"), _copy(tmp_path, "X_seed1")
+    ledger = str(tmp_path / "rescored.csv")
+    if call == "update_cards":
+        before = _files(tmp_path)
+        with pytest.raises(verify.NotAdmitted, match=r"X_seed1: .*cop"):
+            verify.update_cards([first, second], threads=1, record=ledger)
+        assert _files(tmp_path) == before
+    summary_path = os.path.join(second, "summary.json")
+    with open(summary_path, encoding="utf-8") as f:
+        summary = json.load(f)
+    summary["test"]["all"]["fall_rate"]["value"] = 0.0
+    with open(summary_path, "w", encoding="utf-8") as f:
+        json.dump(summary, f)
+    before = _files(tmp_path)
+    with pytest.raises(verify.NotAdmitted, match=r"X_seed1: "):
+        if call == "update_cards":
+            verify.update_cards([second], threads=1, record=ledger)
+        else:
+            verify.upgrade_run(second, version=1, threads=1)
+    assert _files(tmp_path) == before
+
+
+def _files(root) -> dict:
+    return {str(p): p.read_bytes() for p in root.rglob("*") if p.is_file()}

@@ -26,8 +26,9 @@ masses, centres of mass and inertias (total 2.925 kg); box feet 0.105 × 0.066 m
   tilted more than 50° from upright.
 
 Tasks (`tasks`): `walk` and `balance` (the study's), and the test tiers `walk_randomized`,
-`walk_push` and `walk_rough`; control step 16 ms, 1000 steps, action = the 12 leg joint
-targets in [−1, 1]. `cpg_suite.load("darwin_walk")` loads them as dm_control's suite does.
+`walk_push`, `walk_rough` and `walk_contact`; control step 16 ms, 1000 steps, action = the
+12 leg joint targets in [−1, 1]. `cpg_suite.load("darwin_walk")` loads them as dm_control's
+suite does.
 
 The package, laid out as a dm_control domain with its parts apart:
 
@@ -65,6 +66,7 @@ from cpg_suite.darwin.tasks import (
     balance,
     physics_steps_per_control_step,
     walk,
+    walk_contact,
     walk_push,
     walk_randomized,
     walk_rough,
@@ -90,6 +92,7 @@ __all__ = [
     "physics_steps_per_control_step",
     "torso_upright",
     "walk",
+    "walk_contact",
     "walk_push",
     "walk_randomized",
     "walk_rough",

@@ -80,6 +80,25 @@ def set_ground_friction(physics: mujoco.Physics, friction: float) -> None:
     physics.model.geom_friction[ground, 0] = friction
 
 
+def set_contact_time_constant(physics: mujoco.Physics, time_constant: float) -> None:
+    """Sets the contact time constant (`solref[0]`) of the floor, the tiles and the soles.
+
+    MuJoCo mixes two geoms' `solref` by their `solmix` (equal here), so with both sides set
+    their contact has this time constant; the damping ratio stays the model's.
+
+    Args:
+      physics: A `darwin.Physics`.
+      time_constant: The time constant, s.
+
+    Raises:
+      ValueError: If it is not a positive number.
+    """
+    if not (np.isfinite(time_constant) and time_constant > 0):
+        raise ValueError(f"time_constant must be a positive number, got {time_constant!r}")
+    ground = np.array([physics._floor, *physics._feet, *physics._tiles], int)
+    physics.model.geom_solref[ground, 0] = time_constant
+
+
 def set_torso_inertial(
     physics: mujoco.Physics, mass: float, inertia: np.ndarray, com: np.ndarray
 ) -> None:

@@ -195,6 +195,31 @@ def walk_rough(
     )
 
 
+@SUITE.add()
+def walk_contact(
+    time_limit: float = DEFAULT_TIME_LIMIT,
+    random=None,
+    posture: np.ndarray | None = None,
+    contact: perturbations.Contact | None = None,
+    supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
+    environment_kwargs: dict | None = None,
+) -> control.Environment:
+    """Walking on a floor whose friction and softness are drawn per episode (the contact
+    test tier of benchmark version 3).
+
+    Args:
+      time_limit, random, posture, supply, environment_kwargs: As for `walk`.
+      contact: The ranges (default `perturbations.Contact()`).
+
+    Returns:
+      A `control.Environment`.
+    """
+    contact = contact or perturbations.Contact()
+    return _environment(
+        "walk", time_limit, random, posture, INIT_NOISE, supply, environment_kwargs, contact=contact
+    )
+
+
 def _environment(
     objective: str,
     time_limit: float,
@@ -232,6 +257,7 @@ class CPGTask(base.Task):
         pushes: perturbations.Pushes | None = None,
         terrain: perturbations.Terrain | None = None,
         supply: electrical.SupplyLimit | None = electrical.DEFAULT_SUPPLY,
+        contact: perturbations.Contact | None = None,
     ):
         """Initializes the task.
 
@@ -243,6 +269,7 @@ class CPGTask(base.Task):
           randomization: Draw the physical parameters per episode from these ranges.
           pushes: Push the torso as these describe, drawn per episode.
           terrain: Raise the model's tiles (it must have them) per episode.
+          contact: Draw the floor contact's friction and time constant per episode.
           supply: The supply's limit (a brown-out ends the episode like a fall); None: the
             study's unlimited physics. The supply current is measured either way.
 
@@ -264,6 +291,7 @@ class CPGTask(base.Task):
         self._action_spec = specs.BoundedArray((12,), np.float64, -1.0, 1.0, name="leg_targets")
         self._action = np.zeros(12)  # the clipped action (`before_step`'s buffer)
         self.randomization, self.pushes, self.terrain = randomization, pushes, terrain
+        self.contact = contact
         self.supply_limit = supply
         self.supply: electrical.SupplyMonitor | None = None  # this episode's supply current
         self.failure: str | None = None  # why the episode ended early (`electrical.CAUSES`)
@@ -284,6 +312,10 @@ class CPGTask(base.Task):
         if self.randomization is not None:
             self.episode_parameters = self.randomization.sample(self.random)
             self._apply_parameters(physics, self.episode_parameters)
+        if self.contact is not None:
+            self.episode_parameters = self.contact.sample(self.random)
+            perturb.set_ground_friction(physics, self.episode_parameters["friction"])
+            perturb.set_contact_time_constant(physics, self.episode_parameters["time_constant"])
         if self.terrain is not None:
             perturb.set_tile_heights(physics, self.terrain.sample(self.random))
         if self.pushes is not None:
@@ -299,6 +331,12 @@ class CPGTask(base.Task):
         self.start_position = physics.torso_position()
         self._x_before = self.start_position[0]
         super().initialize_episode(physics)
+
+    @property
+    def changes_model(self) -> bool:
+        """Whether an episode changes the model (its parameters, contact or tiles): a
+        batched evaluator then keeps a model per episode."""
+        return any(p is not None for p in (self.randomization, self.contact, self.terrain))
 
     def _apply_parameters(self, physics: Physics, params: dict) -> None:
         """Sets an episode's draw (`perturb.apply_parameters`) around the nominal torso."""

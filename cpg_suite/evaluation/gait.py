@@ -24,6 +24,7 @@ DARWIN_TASKS = (
     "darwin_walk_randomized",
     "darwin_walk_push",
     "darwin_walk_rough",
+    "darwin_walk_contact",
 )
 
 

@@ -170,7 +170,7 @@ class BatchEvaluator:
             state = np.empty(mujoco.mj_stateSize(model, _STATE))
             mujoco.mj_getState(model, data, state, _STATE)
             task = env.task
-            own_model = task.randomization is not None or task.terrain is not None
+            own_model = task.changes_model
             pushes = task.push_forces(self.steps) if task.pushes is not None else None
             self._episodes[seed] = Episode(
                 state, copy.copy(model) if own_model else self.model, pushes, data.ctrl.copy()

@@ -25,8 +25,13 @@ VERSIONS = {
     1: "the study's physics: no electrical limit (cards made before 2026-11-26)",
     2: "the DARwIn-OP's supply: a mean current over 10 A in the last second browns the "
     "servos out and ends the trial like a fall (cpg_suite.electrical)",
+    3: "version 2 and a fifth test tier, darwin_walk_contact: the floor's friction and "
+    "softness drawn per episode over what real floors and soles span (docs/contact.md)",
 }
-BENCHMARK_VERSION = 2  # the version new cards are scored under
+BENCHMARK_VERSION = 3  # the version new cards are scored under
+# The version whose training physics each version has (its tasks, supply): a run trained
+# under either trained alike. Version 3 adds a test tier only.
+_TRAINED_AS = {1: 1, 2: 2, 3: 2}
 
 
 def require_version(version: int) -> None:
@@ -40,6 +45,49 @@ def require_version(version: int) -> None:
     """
     if version not in VERSIONS:
         raise ValueError(f"--benchmark_version must be one of {sorted(VERSIONS)}, got {version!r}")
+
+
+def trained_alike(version: int) -> int:
+    """The version whose training physics `version` has: two runs trained under versions
+    with the same answer trained under the same tasks and supply (they are compared as
+    copies, and ranked on each other's boards).
+
+    Args:
+      version: A key of `VERSIONS`.
+
+    Raises:
+      ValueError: On an unknown version.
+    """
+    require_version(version)
+    return _TRAINED_AS[version]
+
+
+def tiers(version: int = BENCHMARK_VERSION) -> tuple[str, ...]:
+    """The test tiers of a benchmark version's score card, in the card's order.
+
+    Args:
+      version: A key of `VERSIONS`.
+
+    Raises:
+      ValueError: On an unknown version.
+    """
+    require_version(version)
+    return TIERS if version >= 3 else TIERS[:4]
+
+
+def card_tiers(run_tiers: Iterable[str] | None, version: int) -> tuple[str, ...]:
+    """The tiers a run's card under `version` scores: the version's own where the run was
+    set to score an earlier version's full list (or set nothing), else the run's setting
+    (a deviation, kept as it is).
+
+    Args:
+      run_tiers: The run's `test_tiers` setting (None: not set).
+      version: The card's benchmark version.
+    """
+    run_tiers = tuple(run_tiers) if run_tiers is not None else None
+    if run_tiers is None or run_tiers in {tiers(v) for v in VERSIONS}:
+        return tiers(version)
+    return run_tiers
 
 
 def supply_limit(version: int, window: float = electrical.SUPPLY_WINDOW):
@@ -63,8 +111,15 @@ TRAINING = range(0, 1_000_000)
 VALIDATION = range(1_000_000, 2_000_000)
 TEST = range(2_000_000, 2_000_050)
 
-# The test tiers: the nominal task and the three perturbed ones (cpg_suite.perturbations).
-TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
+# The test tiers: the nominal task and the perturbed ones (cpg_suite.perturbations), the
+# current version's (`tiers(version)`: versions 1 and 2 have the first four).
+TIERS = (
+    "darwin_walk",
+    "darwin_walk_randomized",
+    "darwin_walk_push",
+    "darwin_walk_rough",
+    "darwin_walk_contact",
+)
 
 
 def validation_seeds(n: int) -> list[int]:

@@ -319,7 +319,7 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
         return "config.json has no test_seeds or trial_steps (the card's settings)"
     steps = settings["trial_steps"]
     deviations = card_stats.deviations(
-        tuple(settings.get("test_tiers", protocol.TIERS)),
+        protocol.card_tiers(settings.get("test_tiers"), card_version),
         settings["test_seeds"],
         steps,
         card_version,
@@ -419,12 +419,13 @@ def trained_version(run_dir: str) -> int:
 def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, str]:
     """The runs the board of `version` refuses, each with its reason (`run_refusal`), and
     the copies: a run whose trial outcomes, or whose gait or policy, equal as values those
-    of an earlier run trained under the same benchmark version (`cpg_suite.protocol.copies`),
+    of an earlier run trained alike (`cpg_suite.protocol.copies`),
     in any configuration of any method. Earlier: a run the ledger beside the tree records
     with its present files (`_on_record`), then the run that says it started first
-    (`copies.started`), then path order. Runs trained under different versions are not
-    compared: a version-1 run is listed beside its version-2 re-run, never ranked with it
-    (six shipped CEM seeds trained to the same gait under both: the limit never bit).
+    (`copies.started`), then path order. Runs trained under versions of different training
+    physics (`protocol.trained_alike`) are not compared: a version-1 run is listed beside
+    its version-2 re-run, never ranked with it (six shipped CEM seeds trained to the same
+    gait under both: the limit never bit).
 
     Args:
       run_dirs: Run folders.
@@ -440,7 +441,7 @@ def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, s
         if reason is None:
             reason, fingerprint = _copy_refusal(run_dir, version, kept)
             if reason is None:
-                kept.append((run_dir, trained_version(run_dir), fingerprint))
+                kept.append((run_dir, _trained_as(run_dir), fingerprint))
         if reason is not None:
             refused[run_dir] = reason
     return {d: refused[d] for d in run_dirs if d in refused}
@@ -466,13 +467,19 @@ def _copy_refusal(run_dir: str, version: int | None, kept: list) -> tuple:
         fingerprint = copies.fingerprint(run_dir, artifact_files(run_dir), trials)
     except (OSError, ValueError, KeyError, TypeError, SyntaxError) as e:
         return f"unreadable gait or policy ({type(e).__name__}: {e})", None
-    version_trained = trained_version(run_dir)
-    for earlier, their_version, theirs in kept:
-        same = their_version == version_trained and copies.copy_of(fingerprint, theirs)
+    trained_as = _trained_as(run_dir)
+    for earlier, their_physics, theirs in kept:
+        same = their_physics == trained_as and copies.copy_of(fingerprint, theirs)
         if same:
             where = os.path.join(*_tail(earlier))
             return f"a copy of {where}: the same {same} as values (one run, not another)", None
     return None, fingerprint
+
+
+def _trained_as(run_dir: str) -> int:
+    """The version whose training physics the run trained under (`protocol.trained_alike`):
+    runs trained under versions 2 and 3 trained alike and are compared as copies."""
+    return protocol.trained_alike(trained_version(run_dir))
 
 
 def _tail(run_dir: str) -> list[str]:

@@ -128,7 +128,7 @@ def deviations(
     """What makes score settings other than the protocol's card settings.
 
     Args:
-      tiers: The test tiers scored, in order.
+      tiers: The test tiers scored, in order (the version's: `protocol.tiers`).
       seeds: Test seeds per tier.
       steps: Control steps per trial.
       benchmark_version: The version scored under (its supply limit).
@@ -139,11 +139,13 @@ def deviations(
     """
     found = []
     tiers = tuple(tiers)
-    missing = [t for t in protocol.TIERS if t not in tiers]
+    known = benchmark_version in protocol.VERSIONS
+    expected = protocol.tiers(benchmark_version) if known else protocol.TIERS
+    missing = [t for t in expected if t not in tiers]
     if missing:
         found.append(f"tiers left out: {', '.join(missing)}")
-    elif tiers != protocol.TIERS:
-        found.append(f"tiers not in the protocol's order ({', '.join(protocol.TIERS)})")
+    elif tiers != expected:
+        found.append(f"tiers not in the protocol's order ({', '.join(expected)})")
     if seeds != len(protocol.TEST):
         found.append(f"{seeds} of the {len(protocol.TEST)} test seeds")
     if steps != TRIAL_STEPS:

@@ -211,9 +211,47 @@ def score_gait_trials(
     Raises:
       ray_backend.ClusterUnreachable: With backend "ray", if no cluster answers.
     """
-    settings = settings or ScoreSettings()
-    with ray_backend.connected(settings.backend, settings.ray_address):
-        per_tier, card = _score_tiers(amplitudes, settings)
+    return cards_and_trials(np.asarray(amplitudes), [settings or ScoreSettings()])[0]
+
+
+def cards_and_trials(
+    gait_or_policy, settings_list: list[ScoreSettings]
+) -> list[tuple[dict, list[dict]]]:
+    """Cards and trial tables of one gait or policy under several settings that differ
+    only in their tiers and benchmark version (with the same task physics: the versions'
+    `protocol.trained_alike` and supply equal), each tier scored once.
+
+    `verify.upgrade_run` makes a run's card under its own version and under a version that
+    adds a tier from one scoring: each card is the one its settings alone give, bit for bit.
+
+    Args:
+      gait_or_policy: The gait's parameters (an array), or a policy (a callable).
+      settings_list: The settings, each as `score_gait_trials` takes them.
+
+    Returns:
+      `(card, trials)` per settings, in order.
+
+    Raises:
+      ValueError: If the settings differ in more than tiers and version.
+      ray_backend.ClusterUnreachable: With backend "ray", if no cluster answers.
+    """
+    union = settings_list[-1]
+    tiers = tuple(dict.fromkeys(t for s in settings_list for t in s.tiers))
+    for s in settings_list:
+        alike = dataclasses.replace(s, tiers=union.tiers, benchmark_version=union.benchmark_version)
+        if alike != union or s.task_kwargs() != union.task_kwargs():
+            raise ValueError(f"settings differ in more than tiers and version: {s} vs {union}")
+    union = dataclasses.replace(union, tiers=tiers)
+    if callable(gait_or_policy):
+        per_tier = _policy_tiers(gait_or_policy, union)
+    else:
+        with ray_backend.connected(union.backend, union.ray_address):
+            per_tier = _score_tiers(gait_or_policy, union)
+    return [_card_and_trials(per_tier, s) for s in settings_list]
+
+
+def _card_and_trials(per_tier: dict, settings: ScoreSettings) -> tuple[dict, list[dict]]:
+    """The card and trial table of the tiers `settings` names, from per-tier arrays."""
     seeds = protocol.held_out_seeds(settings.seeds)
     trials = [
         {
@@ -227,7 +265,8 @@ def score_gait_trials(
         for tier in settings.tiers
         for i, seed in enumerate(seeds)
     ]
-    return card, trials
+    sim_steps = sum(int(per_tier[t]["n"]) for t in settings.tiers)
+    return _card(per_tier, settings, {"sim_steps": sim_steps}), trials
 
 
 def cause_name(cause: int) -> str:
@@ -235,13 +274,14 @@ def cause_name(cause: int) -> str:
     return electrical.CAUSES[int(cause) - 1] if cause else ""
 
 
-def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> tuple[dict, dict]:
+def _score_tiers(amplitudes: np.ndarray, settings: ScoreSettings) -> dict:
+    """A gait's arrays per tier (`_gait_tier`'s, with `n`: the tier's physics steps)."""
     seeds = protocol.held_out_seeds(settings.seeds)
-    per_tier, sim_steps = {}, 0
+    per_tier = {}
     for tier in progress.track(settings.tiers, desc="tiers", unit="tier"):
-        per_tier[tier], steps = _gait_tier(amplitudes, tier, seeds, settings)
-        sim_steps += steps
-    return per_tier, _card(per_tier, settings, {"sim_steps": sim_steps})
+        arrays, steps = _gait_tier(amplitudes, tier, seeds, settings)
+        per_tier[tier] = {**arrays, "n": steps}
+    return per_tier
 
 
 def _gait_tier(amplitudes: np.ndarray, tier: str, seeds, settings: ScoreSettings) -> tuple:
@@ -544,35 +584,29 @@ def score_policy_trials(
     Returns:
       `(card, trials)`, as `score_gait_trials`.
     """
-    settings = settings or ScoreSettings()
+    return cards_and_trials(policy, [settings or ScoreSettings()])[0]
+
+
+def _policy_tiers(policy, settings: ScoreSettings) -> dict:
+    """A policy's arrays per tier (`d`, `f`, `s`, `c`, `q` and `n`, as `_score_tiers`)."""
     seeds = protocol.held_out_seeds(settings.seeds)
     tiers = settings.tiers
     done = {
         tiers[i]: _policy_tier(policy, tiers[i], seeds, settings)
         for i in _order(policy, len(tiers))
     }
-    per_tier, sim_steps, rows = {}, 0, []
+    per_tier = {}
     for tier in tiers:
         trials = done[tier]
         per_tier[tier] = {
             "d": np.array([r["distance_m"] for r in trials]),
             "f": np.array([r["fell"] for r in trials]),
+            "s": np.array([r["fall_step"] for r in trials]),
             "c": np.array([r["cause"] for r in trials]),
             "q": {f: np.array([r["quality"][f] for r in trials]) for f in gait_quality.FIELDS},
+            "n": sum(r["sim_steps"] for r in trials),
         }
-        sim_steps += sum(r["sim_steps"] for r in trials)
-        rows += [
-            {
-                "tier": tier,
-                "seed": seed,
-                "distance_m": r["distance_m"],
-                "fell": r["fell"],
-                "fall_step": r["fall_step"],
-                "cause": cause_name(r["cause"]),
-            }
-            for seed, r in zip(seeds, trials)
-        ]
-    return _card(per_tier, settings, {"sim_steps": sim_steps}), rows
+    return per_tier
 
 
 def _policy_tier(policy, tier: str, seeds, settings: ScoreSettings) -> list[dict]:

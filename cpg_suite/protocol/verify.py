@@ -117,6 +117,10 @@ class UntrustedCode(ValueError):
     """A run's policy is code that was not trusted (`code_refusal`): it was not loaded."""
 
 
+class NotAdmitted(ValueError):
+    """A maintenance call was given a run the board refuses: nothing was changed."""
+
+
 def shipped_runs(root: str) -> list[str]:
     """The run folders under `root` (a summary and a selected gait or policy), sorted."""
     found = []
@@ -238,13 +242,14 @@ def card_settings(
     """
     s = config["settings"]
     card = card or {}
+    version = card.get("benchmark_version", 1)
     return score.ScoreSettings(
-        tiers=tuple(s.get("test_tiers", protocol.TIERS)),
+        tiers=protocol.card_tiers(s.get("test_tiers"), version),
         seeds=s["test_seeds"] if seeds is None else seeds,
         steps=s["trial_steps"],
         threads=threads,
         controller=s.get("controller", "open_loop"),
-        benchmark_version=card.get("benchmark_version", 1),
+        benchmark_version=version,
         supply_window=card.get("settings", {}).get(
             "supply_window", score.ScoreSettings.supply_window
         ),
@@ -789,43 +794,73 @@ def upgrade_run(
 ) -> bool:
     """Re-scores a shipped run under a new benchmark version, keeping its card as history.
 
-    Its card under its own version is made again first (its trials must be unchanged: the
-    run does what it did) and stored with its trials as `summary.json["history"]["v<n>"]`
-    and `trials_v<n>.csv`; then the run is scored under `version`, which becomes its test
-    card and `trials.csv`. A run already under `version` is left as it is (resumable).
+    Its card under its own version is made again (its trials must be unchanged: the run
+    does what it did) and stored with its trials as `summary.json["history"]["v<n>"]` and
+    `trials_v<n>.csv`; the run scored under `version` becomes its test card and
+    `trials.csv`. Where the two versions have the same task physics
+    (`protocol.trained_alike`: version 3 only adds a tier to version 2) both cards come
+    from one scoring (`score.cards_and_trials`), else from two. A run already under
+    `version` is left as it is (resumable).
 
     Args:
       run_dir: A shipped run.
       version: The benchmark version to score under.
       threads: Evaluator threads.
       trust_code: Whether a policy that is code may run (`code_refusal`).
+      trusted: The trusted pickles' digests (None: the package's list).
 
     Returns:
       Whether the run was upgraded.
 
     Raises:
+      NotAdmitted: If the board refuses the run (nothing is scored or written).
       ValueError: If the run's trials under its own version changed (nothing is written).
       UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
+    require_admitted([run_dir])
+    protocol.require_version(version)
     summary_path = os.path.join(run_dir, "summary.json")
     old = runs.read_json(summary_path)["test"].get("benchmark_version", 1)
     if old == version:
         return False
-    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code, trusted=trusted)
-    if trials != read_trials(os.path.join(run_dir, "trials.csv")):
-        raise ValueError(f"{run_dir}: its trials under version {old} changed")
-    write_trials(os.path.join(run_dir, history_trials_file(old)), trials)
-    summary = runs.read_json(summary_path)
-    history = {**summary.get("history", {}), f"v{old}": _jsonable(score.stored_card(card))}
-    runs.write_json(summary_path, {**summary, "history": history})
     config = runs.read_json(os.path.join(run_dir, "config.json"))
-    settings = dataclasses.replace(
-        card_settings(config, threads=threads), benchmark_version=version
+    before = run_settings(run_dir, threads=threads)
+    after = dataclasses.replace(
+        before,
+        benchmark_version=version,
+        tiers=protocol.card_tiers(config["settings"].get("test_tiers"), version),
     )
-    card, trials = score_run(run_dir, settings, trust_code, trusted)
+    if protocol.trained_alike(old) == protocol.trained_alike(version):
+        (old_card, old_trials), (card, trials) = _score_run_under(
+            run_dir, [before, after], trust_code, trusted
+        )
+    else:
+        old_card, old_trials = score_run(run_dir, before, trust_code, trusted)
+        card, trials = score_run(run_dir, after, trust_code, trusted)
+    if old_trials != read_trials(os.path.join(run_dir, "trials.csv")):
+        raise ValueError(f"{run_dir}: its trials under version {old} changed")
+    write_trials(os.path.join(run_dir, history_trials_file(old)), old_trials)
+    summary = runs.read_json(summary_path)
+    history = {**summary.get("history", {}), f"v{old}": _jsonable(score.stored_card(old_card))}
+    runs.write_json(summary_path, {**summary, "history": history})
     write_trials(os.path.join(run_dir, "trials.csv"), trials)
     _store_card(run_dir, card)
     return True
+
+
+def _score_run_under(
+    run_dir: str,
+    settings_list: list[score.ScoreSettings],
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+) -> list[tuple[dict, list[dict]]]:
+    """`score_run` under settings that differ only in tiers and version, each tier once."""
+    policy = shipped_policy(run_dir, trust_code, trusted)
+    if policy is None:
+        params = gait_params(run_dir, settings_list[0].controller)
+        return score.cards_and_trials(params, settings_list)
+    with policy_threads(run_dir):
+        return score.cards_and_trials(policy, settings_list)
 
 
 def _quick_sample(shipped: list[str]) -> list[str]:
@@ -1012,7 +1047,9 @@ def _maintain(values: flags.FlagValues) -> bool:
     policy loadable under the trust given); one that is not stops it before any file is
     written. `--update_cards` then scores every run before it stores any card; with
     `--record`, each run whose card it stores is recorded as re-scored in full (its trials
-    reproduced bit for bit, its files as they are now).
+    reproduced bit for bit, its files as they are now), as is each run `--upgrade_to`
+    upgrades (its trials under its old version reproduced, its new card made in the same
+    scoring).
 
     Args:
       values: The parsed flags.
@@ -1048,6 +1085,8 @@ def _maintain(values: flags.FlagValues) -> bool:
     elif values.upgrade_to is not None:
         for run_dir in run_dirs:
             if upgrade_run(run_dir, values.upgrade_to, values.threads, values.trust_code, trusted):
+                if values.record:  # its trials under its old version reproduced in full
+                    write_ledger(values.record, {run_dir: []})
                 progress.write(f"upgraded to version {values.upgrade_to}: {run_dir}")
     else:
         update_cards(run_dirs, values.threads, values.trust_code, trusted, values.record)
@@ -1072,15 +1111,35 @@ def update_cards(
         recorded as re-scored in full (its trials reproduced, its files as they are now).
 
     Raises:
+      NotAdmitted: If the board refuses one of the runs (`admission.refusals`, the runs
+        judged together: a copy among them is refused); nothing is scored or written.
       ValueError: If a run's trials differ from its `trials.csv` (no card is written then).
       UntrustedCode: If a policy is code not trusted (nothing is loaded or written).
     """
+    require_admitted(run_dirs)
     cards = [(run_dir, fresh_card(run_dir, threads, trust_code, trusted)) for run_dir in run_dirs]
     for run_dir, card in cards:
         _store_card(run_dir, card)
         if record:
             write_ledger(record, {run_dir: []})
         progress.write(f"card updated: {run_dir}")
+
+
+def require_admitted(run_dirs: list[str]) -> None:
+    """Raises `NotAdmitted` naming the first run the board refuses, and why.
+
+    A card or ledger row is written only for a run the board admits: a maintenance call
+    never gives a refused run (a copy counted as a seed, an edited file) a fresh card.
+
+    Args:
+      run_dirs: The runs a maintenance call is about to change, judged together.
+
+    Raises:
+      NotAdmitted: On the first refused run, in path order.
+    """
+    refused = admission.refusals(run_dirs)
+    for run_dir in sorted(refused):
+        raise NotAdmitted(f"nothing changed: {run_dir}: {refused[run_dir]}")
 
 
 def _check_all(run_dirs: list[str], trust_code: bool, trusted: frozenset[str], admit: bool) -> None:
