@@ -13,7 +13,11 @@ its argument (a glob of run folders under it, relative to it):
 * `seeds GLOB`: how many runs match;
 * `test_range GLOB`: the lowest and highest test score (success-weighted distance over
   every tier, m) of the matching runs, under the benchmark version they are scored with;
-* `v1_test_range GLOB`: the same, of their version-1 cards kept as history;
+* `v1_test_range GLOB`, `v2_test_range GLOB`: the same, of their version-1 (version-2)
+  cards kept as history;
+* `test_mean GLOB`: the mean test score of the matching runs (m);
+* `tier_failures GLOB`: per tier of their cards, in the card's order, the share of failed
+  trials over the matching runs (%, one decimal, joined by " / ");
 * `validation_range GLOB`: the lowest and highest validation score of the selected
   policy or gait (m);
 * `train_s_range GLOB`: the lowest and highest training wall time (s, `train_wall_s`).
@@ -69,8 +73,28 @@ def _test_range(runs: str, arg: str | None) -> str:
     return _range([_test(s["test"]) for s in _summaries(runs, _required(arg))])
 
 
-def _v1_test_range(runs: str, arg: str | None) -> str:
-    return _range([_test(s["history"]["v1"]) for s in _summaries(runs, _required(arg))])
+def _history_test_range(version: int) -> Callable[[str, str | None], str]:
+    def fact(runs: str, arg: str | None) -> str:
+        found = _summaries(runs, _required(arg))
+        return _range([_test(s["history"][f"v{version}"]) for s in found])
+
+    return fact
+
+
+def _test_mean(runs: str, arg: str | None) -> str:
+    scores = [_test(s["test"]) for s in _summaries(runs, _required(arg))]
+    return format(sum(scores) / len(scores), ".2f")
+
+
+def _tier_failures(runs: str, arg: str | None) -> str:
+    cards = [s["test"] for s in _summaries(runs, _required(arg))]
+    tiers = list(cards[0]["tiers"])
+    if any(list(c["tiers"]) != tiers for c in cards):
+        raise ValueError(f"the runs matching {arg!r} have cards of different tiers")
+    shares = [
+        100 * sum(c["tiers"][t]["fall_rate"]["value"] for c in cards) / len(cards) for t in tiers
+    ]
+    return " / ".join(format(x, ".1f") for x in shares)
 
 
 def _validation_range(runs: str, arg: str | None) -> str:
@@ -92,7 +116,10 @@ FACTS: dict[str, Callable[[str, str | None], str]] = {
     "runs": _runs,
     "seeds": _seeds,
     "test_range": _test_range,
-    "v1_test_range": _v1_test_range,
+    "v1_test_range": _history_test_range(1),
+    "v2_test_range": _history_test_range(2),
+    "test_mean": _test_mean,
+    "tier_failures": _tier_failures,
     "validation_range": _validation_range,
     "train_s_range": _train_s_range,
 }

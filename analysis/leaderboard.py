@@ -377,6 +377,15 @@ def budget_track(summaries: list[dict]) -> str:
     return "study" if ratio <= 1 else "4x" if ratio <= 4 else "over_4x"
 
 
+def _trained_as(version: int | None) -> int | None:
+    """The version whose training physics `version` has (`protocol.trained_alike`): runs
+    trained under versions 2 and 3 form one row, shown as trained under 2; an unknown
+    version stands for itself (its runs are listed, never ranked)."""
+    if version is None or version not in protocol.VERSIONS:
+        return version
+    return protocol.trained_alike(version)
+
+
 def _status(track: str, trained: int | None, version: int, complete: bool) -> str:
     """A configuration's standing on the board of `version` (docs/protocol.md#ranking):
     "reference" (a preset: no training), "trained_v<n>" (trained under an earlier version
@@ -384,7 +393,7 @@ def _status(track: str, trained: int | None, version: int, complete: bool) -> st
     least `MIN_SEEDS` seeds, every tier), "provisional"."""
     if not track:
         return "reference"
-    if trained is not None and protocol.trained_alike(trained) != protocol.trained_alike(version):
+    if trained is not None and _trained_as(trained) != _trained_as(version):
         return f"trained_v{trained}"
     return "ranked" if complete else "provisional"
 
@@ -466,10 +475,11 @@ def card_under(summary: dict, version: int | None) -> dict | None:
 
 
 def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
-    """DARwIn-OP runs ranked by their test score (success-weighted distance over the four
-    test tiers), one row per (training task, method, configuration, benchmark version of
-    the cards, version trained under) over its seeds. A configuration trained under an
-    earlier version than its cards' is listed, not ranked (`_status`).
+    """DARwIn-OP runs ranked by their test score (success-weighted distance over their
+    version's test tiers), one row per (training task, method, configuration, benchmark
+    version of the cards, training physics: `_trained_as` the version trained under) over
+    its seeds. A configuration trained under other training physics than its cards'
+    version is listed, not ranked (`_status`).
 
     These are the rows of the runs given, whatever they hold: the board ranks only the
     runs it admits (`darwin_board`, `admit`).
@@ -488,7 +498,7 @@ def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
         card = card_under(run["summary"], version)
         if darwin and card is not None:
             version_of_card = card.get("benchmark_version", 1)
-            trained = run.get("trained_version")
+            trained = _trained_as(run.get("trained_version"))
             key = (run["task"], run["method"], run["config"], version_of_card, trained)
             groups[key].append(
                 {**run["summary"], "test": card, "_rescored_on": run.get("rescored_on")}

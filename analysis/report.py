@@ -200,7 +200,7 @@ def learning_curves(found: list[dict], out: str) -> str | None:
 
 def _track_configurations(found: list[dict]) -> dict[str, dict[str, np.ndarray]]:
     """Per budget track, each ranked-or-provisional DARwIn configuration's (runs × tiers)
-    test scores (a run must have a card with all four tiers)."""
+    test scores (a run must have a card with every tier of the current version)."""
     groups = defaultdict(list)
     for run in found:
         test = run["summary"].get("test")

@@ -6,8 +6,9 @@ r"""Every hot path's ratio to a raw `mujoco.rollout` of the same physics, in one
 For each path, in one process, ours and the raw rollout timed back to back (best of
 `--repeats` each), as physics steps per second:
   * `env.step` of every DARwIn-OP tier (`darwin_walk`, `darwin_balance`,
-    `darwin_walk_randomized`, `darwin_walk_push`, `darwin_walk_rough`), the hand-tuned
-    gait for `--steps` control steps (`bench_env`'s actions and controls),
+    `darwin_walk_randomized`, `darwin_walk_push`, `darwin_walk_rough`,
+    `darwin_walk_contact`), the hand-tuned gait for `--steps` control steps (`bench_env`'s
+    actions and controls),
     against a 1-thread rollout of the same model, initial state and controls;
   * the vector env (`cpg_suite.vector.DarwinVectorEnv`, `darwin_walk`, 8 robots,
     `--threads`), the gait from 8 seeded starts (`bench_vector_env`'s), against a rollout
@@ -15,7 +16,7 @@ For each path, in one process, ours and the raw rollout timed back to back (best
   * the batched open-loop evaluator (`cpg_suite.evaluation.open_loop.BatchEvaluator`,
     `--threads`), 8 candidates around the hand-tuned gait (some fall, as in a CEM round:
     the evaluator stops them, the rollout does not, so steps per second are compared);
-  * scoring (`cpg_suite.protocol.score.score_gait`, the four tiers × 2 test seeds,
+  * scoring (`cpg_suite.protocol.score.score_gait`, the card's tiers × 2 test seeds,
     `--threads`) against a rollout of the nominal gait.
 ratio = ours / raw in physics steps per second: 1 is free, the goal is ≥ 0.8 (issue 55),
 the floor the slow test holds is 0.75 (`tests/test_hot_paths.py`). `--clock=cpu` times
@@ -48,6 +49,7 @@ DARWIN_TIERS = (
     "darwin_walk_randomized",
     "darwin_walk_push",
     "darwin_walk_rough",
+    "darwin_walk_contact",
 )
 PATHS = ("env", "vector", "evaluator", "score")
 GOAL, FLOOR = 0.8, 0.75
@@ -166,7 +168,7 @@ def evaluator(steps: int, threads: int, repeats: int, now) -> tuple[float, float
 
 
 def scoring(steps: int, threads: int, repeats: int, now) -> tuple[float, float]:
-    """(ours, raw) physics steps per second of scoring the hand-tuned gait (four tiers × 2
+    """(ours, raw) physics steps per second of scoring the hand-tuned gait (the card's tiers × 2
     test seeds) and of a rollout of the nominal gait as long."""
     from cpg_suite.evaluation.open_loop import BatchEvaluator
     from cpg_suite.protocol import score
@@ -219,7 +221,7 @@ def ratios(
     if "evaluator" in paths:
         yield "open-loop evaluator (8 candidates)", *evaluator(steps, threads, repeats, now)
     if "score" in paths:
-        yield "scoring (4 tiers x 2 seeds)", *scoring(steps, threads, 1, now)
+        yield f"scoring ({len(protocol.TIERS)} tiers x 2 seeds)", *scoring(steps, threads, 1, now)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,4 +1,4 @@
-r"""Time to score one gait on the test protocol (4 tiers × 50 trials of 16 s).
+r"""Time to score one gait on the test protocol (5 tiers × 50 trials of 16 s).
 
   python benchmarks/bench_score.py [--params=hand_tuned] [--threads=2]
 

@@ -20,7 +20,8 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # the repository
 RUNS = os.path.join("results", "protocol", "runs")
-TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
+sys.path.insert(0, ROOT)
+from cpg_suite.protocol import TIERS  # noqa: E402  (every version's tiers, in the card's order)
 
 
 def _at(revision: str | None, path: str) -> str:

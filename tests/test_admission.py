@@ -143,31 +143,55 @@ FORGERIES = {
     ),
     "trials_short": (
         lambda run: _write_trials(run, _trials(run)[:-1]),
-        "its trial table (199 trials) is not the card's 4 tiers × 50 test seeds",
+        "its trial table (249 trials) is not the card's 5 tiers × 50 test seeds",
     ),
     "config_claims_v1": (
         lambda run: _edit_json(
             run / "config.json", lambda c: c["settings"].pop("benchmark_version")
         ),
-        "config.json claims benchmark version 1, but the run's cards are of version 2",
+        "config.json claims benchmark version 1, but the run's cards are of version 2, 3",
     ),
-    "config_claims_v3": (
+    "config_claims_v3": (  # trained under 2, upgraded: its first card is version 2's
         lambda run: _edit_json(
             run / "config.json", lambda c: c["settings"].update(benchmark_version=3)
         ),
-        "config.json claims benchmark version 3, not one of [1, 2]",
+        "config.json claims benchmark version 3, but the run's cards are of version 2, 3",
+    ),
+    "config_claims_v4": (
+        lambda run: _edit_json(
+            run / "config.json", lambda c: c["settings"].update(benchmark_version=4)
+        ),
+        "config.json claims benchmark version 4, not one of [1, 2, 3]",
+    ),
+    "v3_card_without_contact": (  # a version-3 card of version 2's four tiers
+        lambda run: _scored_as(run, tiers=protocol.tiers(2)),
+        "not under the protocol's card settings: tiers left out: darwin_walk_contact",
+    ),
+    "v3_card_claims_five_tiers": (  # the same, its card claiming settings of five
+        lambda run: (
+            _scored_as(run, tiers=protocol.tiers(2)),
+            _edit_json(
+                run / "summary.json",
+                lambda s: s["test"].update(
+                    settings={"tiers": list(protocol.TIERS), "seeds": 50, "steps": 1000}
+                ),
+            ),
+        ),
+        "not under the protocol's card settings: tiers left out: darwin_walk_contact",
     ),
     "card_claims_v1": (
         lambda run: _edit_json(
             run / "summary.json", lambda s: s["test"].update(benchmark_version=1)
         ),
-        "no card under benchmark version 2 (its card: version 1)",
+        "no card under benchmark version 3 (its card: version 1)",
     ),
 }
 
 # Verify checks each card as it stands, not under a board's version.
 AS_VERIFY_SEES_IT = {
-    "card_claims_v1": "config.json claims benchmark version 2, but the run's cards are of version 1"
+    "card_claims_v1": (
+        "config.json claims benchmark version 2, but the run's cards are of version 1, 2"
+    )
 }
 
 
@@ -257,9 +281,12 @@ def test_every_shipped_run_is_admitted():
     # The version-1 board: every run kept its version-1 card, or was trained under 2.
     admitted, refused = leaderboard.admit(found, 1)
     assert {r["reason"] for r in refused} == {
-        "no card under benchmark version 1 (its card: version 2)"
+        "no card under benchmark version 1 (its card: version 3)"
     }
     assert all(admission.trained_version(run["dir"]) == 1 for run in admitted)
+    # The version-2 board: every run kept its version-2 card (version 3 added a tier).
+    admitted, refused = leaderboard.admit(found, 2)
+    assert refused == [] and len(admitted) == 103
 
 
 def test_the_board_executes_nothing_from_a_run_folder(tmp_path):
@@ -294,7 +321,8 @@ def test_a_card_says_when_it_is_not_the_protocols():
     settings = score.ScoreSettings(tiers=("darwin_walk",), seeds=2, steps=30)
     card = score.score_gait(np.zeros(11), settings)
     deviations = [
-        "tiers left out: darwin_walk_randomized, darwin_walk_push, darwin_walk_rough",
+        "tiers left out: darwin_walk_randomized, darwin_walk_push, darwin_walk_rough, "
+        "darwin_walk_contact",
         "2 of the 50 test seeds",
         "30-step trials (the protocol's: 1000)",
     ]
@@ -310,14 +338,24 @@ def test_a_card_says_when_it_is_not_the_protocols():
 
 
 def test_a_protocol_card_is_unmarked():
-    assert card_stats.deviations(protocol.TIERS, 50, 1000, 2) == []
-    assert card_stats.deviations(protocol.TIERS, 50, 1000, 2, 0.25) == [
-        "supply window 0.25 s (version 2's: 1 s)"
+    assert card_stats.deviations(protocol.TIERS, 50, 1000, 3) == []
+    assert card_stats.deviations(protocol.tiers(2), 50, 1000, 2) == []
+    assert card_stats.deviations(protocol.TIERS, 50, 1000, 3, 0.25) == [
+        "supply window 0.25 s (version 3's: 1 s)"
     ]
-    assert card_stats.deviations(protocol.TIERS, 50, 1000, 1, 0.25) == []  # no limit in v1
+    assert card_stats.deviations(protocol.tiers(1), 50, 1000, 1, 0.25) == []  # no limit in v1
+    assert card_stats.deviations(protocol.tiers(2), 50, 1000, 3) == [
+        "tiers left out: darwin_walk_contact"
+    ]
+    assert card_stats.deviations(protocol.TIERS, 50, 1000, 2) == [
+        "tiers not of version 2: darwin_walk_contact"
+    ]
+    assert card_stats.deviations(protocol.TIERS[::-1], 50, 1000, 3)[0].startswith(
+        "tiers not in the protocol's order"
+    )
     card = json.loads(open(os.path.join(GAIT_RUN, "summary.json")).read())["test"]
     assert "protocol" not in card and card_stats.is_protocol(card)
-    assert score.format_card(card).startswith("benchmark version 2; speed = ")
+    assert score.format_card(card).startswith("benchmark version 3; speed = ")
     assert score.stored_card(card) == card
 
 

@@ -123,6 +123,7 @@ def test_the_readme_runs_on_the_core_install(tmp_path):
         "darwin_walk_randomized",
         "darwin_walk_push",
         "darwin_walk_rough",
+        "darwin_walk_contact",
         "all",
     ]
     assert "walks forward" in submission

@@ -101,7 +101,7 @@ def test_update_cards_refuses_an_edited_run(tmp_path, edit):
     with open(os.path.join(run_dir, "summary.json"), "rb") as f:
         summary = f.read()
     ledger = str(tmp_path / "rescored.csv")
-    with pytest.raises(ValueError, match="trials changed"):
+    with pytest.raises(ValueError, match=r"trials changed|trial table"):
         verify.update_cards([run_dir], threads=1, record=ledger)
     assert admission.read_ledger(ledger) == {}
     with open(os.path.join(run_dir, "summary.json"), "rb") as f:
@@ -114,6 +114,12 @@ def test_maintenance_calls_refuse_what_the_board_refuses(tmp_path, call):
     as a second seed; a run whose card was edited) gets no card and no ledger row, and
     nothing is scored first (this test scores nothing: it takes seconds)."""
     first, second = _copy(tmp_path, "X_seed0"), _copy(tmp_path, "X_seed1")
+    config_path = os.path.join(second, "config.json")
+    with open(config_path, encoding="utf-8") as f:
+        config = json.load(f)
+    config["settings"]["seed"] = 1  # its folder's seed: a copy passed off as a second seed
+    with open(config_path, "w", encoding="utf-8") as f:
+        json.dump(config, f)
     ledger = str(tmp_path / "rescored.csv")
     if call == "update_cards":
         before = _files(tmp_path)

@@ -96,3 +96,29 @@ def test_the_pages_quote_the_shipped_runs_as_they_are():
         if facts.fill(text, os.path.join(root, rebuild.RUNS)) != text:
             stale.append(page)
     assert not stale, f"rebuild with python -m analysis.rebuild: {stale}"
+
+
+def test_the_mean_and_the_failures_per_tier_are_written_from_the_cards(tmp_path):
+    import json
+
+    from analysis import facts
+
+    for seed, (m, falls) in enumerate([(2.0, (0.0, 0.02)), (3.0, (0.1, 0.0))]):
+        _shipped(tmp_path, f"fb_seed{seed}", m)
+        path = tmp_path / "ppo" / "darwin_walk" / f"fb_seed{seed}" / "summary.json"
+        summary = json.loads(path.read_text())
+        summary["test"]["tiers"] = {
+            t: {"fall_rate": {"value": f}}
+            for t, f in zip(("darwin_walk", "darwin_walk_rough"), falls)
+        }
+        path.write_text(json.dumps(summary))
+    text = (
+        "<!-- fact: test_mean ppo/darwin_walk/fb_seed* -->0<!-- /fact --> m, "
+        "<!-- fact: tier_failures ppo/darwin_walk/fb_seed* -->0<!-- /fact --> %"
+    )
+    filled = facts.fill(text, str(tmp_path))
+    assert facts.PATTERN.sub(lambda m: f"[{m.group(3)}]", filled) == "[2.50] m, [5.0 / 1.0] %"
+    summary["test"]["tiers"] = {"darwin_walk": {"fall_rate": {"value": 0.0}}}
+    path.write_text(json.dumps(summary))
+    with pytest.raises(ValueError, match="cards of different tiers"):
+        facts.fill(text, str(tmp_path))

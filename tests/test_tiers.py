@@ -1,4 +1,4 @@
-"""The test tiers of the walking task: randomized physics, pushes, rough ground."""
+"""The test tiers of the walking task: randomized physics, pushes, rough ground, contact."""
 
 import dataclasses
 
@@ -10,7 +10,7 @@ from cpg_suite import cpg, perturbations
 from cpg_suite.evaluation.gait import evaluate_gait
 from cpg_suite.evaluation.open_loop import BatchEvaluator
 
-TIERS = ("darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough")
+TIERS = ("darwin_walk_randomized", "darwin_walk_push", "darwin_walk_rough", "darwin_walk_contact")
 
 
 def _trajectory(task, seed, steps, task_kwargs=None):

@@ -325,6 +325,13 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
         card_version,
         settings.get("supply_window", electrical.SUPPLY_WINDOW),
     ) or card_stats.card_deviations(card, infer_steps=False)
+    scored = card.get("tiers")
+    if not deviations and (not isinstance(scored, dict) or not scored):
+        deviations = ["the card has no tiers"]
+    elif not deviations:  # what the card holds, whatever settings it claims
+        deviations = card_stats.deviations(
+            tuple(scored), settings["test_seeds"], steps, card_version
+        )
     if deviations:
         return "not under the protocol's card settings: " + "; ".join(deviations)
     trained = settings.get("benchmark_version", 1)

@@ -142,8 +142,11 @@ def deviations(
     known = benchmark_version in protocol.VERSIONS
     expected = protocol.tiers(benchmark_version) if known else protocol.TIERS
     missing = [t for t in expected if t not in tiers]
+    extra = [t for t in tiers if t not in expected]
     if missing:
         found.append(f"tiers left out: {', '.join(missing)}")
+    elif extra:
+        found.append(f"tiers not of version {benchmark_version}: {', '.join(extra)}")
     elif tiers != expected:
         found.append(f"tiers not in the protocol's order ({', '.join(expected)})")
     if seeds != len(protocol.TEST):

@@ -65,7 +65,8 @@ class ScoreSettings:
     """What a score card measures.
 
     Attributes:
-      tiers: The test tiers (comma-separated on the command line).
+      tiers: The test tiers (comma-separated on the command line; None: the benchmark
+        version's, `protocol.tiers`).
       seeds: How many of the 50 test seeds (all for a reported score).
       steps: Control steps per trial (1000 = 16 s).
       threads: Evaluator threads (results do not depend on it).
@@ -78,7 +79,7 @@ class ScoreSettings:
         the whole trial); 1 s is the benchmark's, others measure the ranking's sensitivity.
     """
 
-    tiers: tuple[str, ...] = protocol.TIERS
+    tiers: tuple[str, ...] | None = None
     seeds: int = len(protocol.TEST)
     steps: int = 1000
     threads: int = 2
@@ -89,7 +90,8 @@ class ScoreSettings:
     supply_window: float = electrical.SUPPLY_WINDOW
 
     def __post_init__(self):
-        tiers = tuple(self.tiers)
+        protocol.require_version(self.benchmark_version)
+        tiers = protocol.tiers(self.benchmark_version) if self.tiers is None else tuple(self.tiers)
         object.__setattr__(self, "tiers", tiers)
         unknown = [t for t in tiers if t not in protocol.TIERS]
         cli.require(
@@ -729,7 +731,12 @@ def define_flags() -> None:
     """Defines this module's command-line flags (only when it runs as a program)."""
     d = ScoreSettings()
     flags.DEFINE_string("params", "hand_tuned", f"Preset ({', '.join(cpg.PRESETS)}) or JSON.")
-    flags.DEFINE_list("tiers", list(d.tiers), f"Test tiers: {', '.join(protocol.TIERS)}.")
+    flags.DEFINE_list(
+        "tiers",
+        None,
+        f"none: --benchmark_version's (version {protocol.BENCHMARK_VERSION}: all "
+        f"{len(protocol.TIERS)}). Test tiers, of {', '.join(protocol.TIERS)}.",
+    )
     flags.DEFINE_integer("seeds", d.seeds, "How many of the 50 test seeds.")
     flags.DEFINE_integer("steps", d.steps, "Control steps per trial.")
     flags.DEFINE_integer("threads", d.threads, "Evaluator threads (results do not depend on it).")

@@ -234,8 +234,8 @@ def card_settings(
       config: The run's config.json.
       seeds: Test seeds per tier (None: the run's own).
       threads: Evaluator threads (the results do not depend on it).
-      card: The run's stored card, whose benchmark version and supply window it takes (None
-        or a card without them: version 1).
+      card: The run's stored card, whose tiers, benchmark version and supply window it
+        takes (None or a card without them: the run's tiers for version 1).
 
     Returns:
       The settings `score.score_gait_trials` and `score.score_policy_trials` take.
@@ -243,8 +243,13 @@ def card_settings(
     s = config["settings"]
     card = card or {}
     version = card.get("benchmark_version", 1)
+    stored_tiers = card.get("tiers")
+    if isinstance(stored_tiers, dict) and stored_tiers:
+        tiers = tuple(stored_tiers)  # what the card scored (admission checks they are right)
+    else:
+        tiers = protocol.card_tiers(s.get("test_tiers"), version)
     return score.ScoreSettings(
-        tiers=protocol.card_tiers(s.get("test_tiers"), version),
+        tiers=tiers,
         seeds=s["test_seeds"] if seeds is None else seeds,
         steps=s["trial_steps"],
         threads=threads,
@@ -759,19 +764,38 @@ def audit_runs(
     return flagged
 
 
-def write_ledger(path: str, outcomes: dict[str, list[str]], sample_trials: int = 0) -> None:
+def write_ledger(
+    path: str,
+    outcomes: dict[str, list[str]],
+    sample_trials: int = 0,
+    upgrade: tuple[int, int] | None = None,
+) -> None:
     """Records the runs just checked in a ledger (`admission.LEDGER_FIELDS`), a row per
     run, replacing that run's earlier row: its files' digest, full or sampled, how many
     trials, whether they reproduced, when and at which commit. A `--quick` check is not
-    recorded (it checks the code, not the runs)."""
+    recorded (it checks the code, not the runs).
+
+    Args:
+      path: The ledger (CSV).
+      outcomes: {run: its problems (empty: reproduced)}.
+      sample_trials: Trials sampled per run (0: a full check).
+      upgrade: `(old, new)` versions for runs `upgrade_run` just upgraded: the check is
+        "upgrade <old>-><new>", its trials those of the old card, reproduced; the new card's
+        other trials were scored for the first time, so it is no full re-score (the board
+        counts only "full" rows).
+    """
     ledger = admission.read_ledger(path)
     environment = runs.environment_record()
     for run_dir, problems in outcomes.items():
         trials = len(read_trials(os.path.join(run_dir, "trials.csv")))
+        check = f"sample {sample_trials}" if sample_trials else "full"
+        if upgrade is not None:
+            check = f"upgrade {upgrade[0]}->{upgrade[1]}"
+            trials = len(read_trials(os.path.join(run_dir, history_trials_file(upgrade[0]))))
         ledger[admission.run_key(run_dir)] = {
             "run": admission.run_key(run_dir),
             "files_sha256": admission.run_digest(run_dir),
-            "check": f"sample {sample_trials}" if sample_trials else "full",
+            "check": check,
             "trials": min(sample_trials, trials) if sample_trials else trials,
             "result": "differs" if problems else "reproduced",
             "date_utc": environment["started_utc"][:10],
@@ -814,7 +838,8 @@ def upgrade_run(
 
     Raises:
       NotAdmitted: If the board refuses the run (nothing is scored or written).
-      ValueError: If the run's trials under its own version changed (nothing is written).
+      ValueError: If `version` is earlier than its card's, or the run's trials under its own
+        version changed (nothing is written).
       UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
     require_admitted([run_dir])
@@ -823,6 +848,8 @@ def upgrade_run(
     old = runs.read_json(summary_path)["test"].get("benchmark_version", 1)
     if old == version:
         return False
+    if version < old:
+        raise ValueError(f"{run_dir}: its card is of version {old}; cannot upgrade to {version}")
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     before = run_settings(run_dir, threads=threads)
     after = dataclasses.replace(
@@ -1047,9 +1074,8 @@ def _maintain(values: flags.FlagValues) -> bool:
     policy loadable under the trust given); one that is not stops it before any file is
     written. `--update_cards` then scores every run before it stores any card; with
     `--record`, each run whose card it stores is recorded as re-scored in full (its trials
-    reproduced bit for bit, its files as they are now), as is each run `--upgrade_to`
-    upgrades (its trials under its old version reproduced, its new card made in the same
-    scoring).
+    reproduced bit for bit, its files as they are now); each run `--upgrade_to` upgrades
+    is recorded as upgraded (its old card's trials reproduced; not a full re-score).
 
     Args:
       values: The parsed flags.
@@ -1084,9 +1110,10 @@ def _maintain(values: flags.FlagValues) -> bool:
             progress.write(f"re-scored: {run_dir}")
     elif values.upgrade_to is not None:
         for run_dir in run_dirs:
+            old = stored_card(run_dir).get("benchmark_version", 1)
             if upgrade_run(run_dir, values.upgrade_to, values.threads, values.trust_code, trusted):
-                if values.record:  # its trials under its old version reproduced in full
-                    write_ledger(values.record, {run_dir: []})
+                if values.record:  # its old card's trials reproduced; the rest are new
+                    write_ledger(values.record, {run_dir: []}, upgrade=(old, values.upgrade_to))
                 progress.write(f"upgraded to version {values.upgrade_to}: {run_dir}")
     else:
         update_cards(run_dirs, values.threads, values.trust_code, trusted, values.record)
