@@ -189,8 +189,8 @@ FORGERIES = {
 
 # Verify checks each card as it stands, not under a board's version.
 AS_VERIFY_SEES_IT = {
-    "card_claims_v1": (
-        "config.json claims benchmark version 2, but the run's cards are of version 1, 2"
+    "card_claims_v1": (  # a version-1 card has version 1's four tiers, not five
+        "not under the protocol's card settings: tiers not of version 1: darwin_walk_contact"
     )
 }
 
@@ -223,7 +223,7 @@ def test_the_board_refuses_each_forgery_with_its_reason(forged, tmp_path):
     assert f"{len(refused)} runs not admitted" in line
     for name, (_, reason) in FORGERIES.items():
         assert refused[f"{name}_seed0"]["reason"].startswith(reason), name
-        assert refused[f"{name}_seed0"]["benchmark_version"] == "2"
+        assert refused[f"{name}_seed0"]["benchmark_version"] == "3"
     for seed in range(1, 5):
         reason = refused[f"copied_seed{seed}"]["reason"]
         assert reason.startswith(

@@ -32,7 +32,7 @@ def test_the_ledger_counts_a_run_only_while_its_files_are_those_it_checked(tmp_p
     verify.write_ledger(ledger, {str(run): []})
     rows = admission.read_ledger(ledger)
     assert rows["cem/darwin_walk/K50_seed0"]["check"] == "full"
-    assert rows["cem/darwin_walk/K50_seed0"]["trials"] == "200"
+    assert rows["cem/darwin_walk/K50_seed0"]["trials"] == "250"
     date = admission.rescored_in_full(str(run), rows)
     assert date and len(date) == 10
     found, _ = leaderboard.find_runs(str(runs))

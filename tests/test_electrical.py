@@ -232,9 +232,10 @@ def test_benchmark_versions_choose_the_supply_limit():
 
     assert protocol.supply_limit(1) is None
     assert protocol.supply_limit(2) == electrical.DEFAULT_SUPPLY
+    assert protocol.supply_limit(3) == electrical.DEFAULT_SUPPLY  # version 3 adds a tier only
     assert OptimizerSettings(benchmark_version=1).task_kwargs() == {"supply": None}
     with pytest.raises(ValueError, match="benchmark_version"):
-        OptimizerSettings(benchmark_version=3)
+        OptimizerSettings(benchmark_version=4)
     amps = cpg.amplitudes_from("hand_tuned")
     for version in (1, 2):
         settings = score.ScoreSettings(
