@@ -76,8 +76,7 @@ def set_ground_friction(physics: mujoco.Physics, friction: float) -> None:
     """
     if not (np.isfinite(friction) and friction > 0):
         raise ValueError(f"friction must be a positive number, got {friction!r}")
-    ground = np.array([physics._floor, *physics._feet, *physics._tiles], int)
-    physics.model.geom_friction[ground, 0] = friction
+    physics.model.geom_friction[_ground_geoms(physics), 0] = friction
 
 
 def set_contact_time_constant(physics: mujoco.Physics, time_constant: float) -> None:
@@ -95,8 +94,12 @@ def set_contact_time_constant(physics: mujoco.Physics, time_constant: float) -> 
     """
     if not (np.isfinite(time_constant) and time_constant > 0):
         raise ValueError(f"time_constant must be a positive number, got {time_constant!r}")
-    ground = np.array([physics._floor, *physics._feet, *physics._tiles], int)
-    physics.model.geom_solref[ground, 0] = time_constant
+    physics.model.geom_solref[_ground_geoms(physics), 0] = time_constant
+
+
+def _ground_geoms(physics: mujoco.Physics) -> np.ndarray:
+    """The floor's, the soles' and the tiles' geom ids: both sides of every floor contact."""
+    return np.array([physics._floor, *physics._feet, *physics._tiles], int)
 
 
 def set_torso_inertial(
