@@ -167,6 +167,16 @@ FORGERIES = {
         lambda run: _scored_as(run, tiers=protocol.tiers(2)),
         "not under the protocol's card settings: tiers left out: darwin_walk_contact",
     ),
+    "v2_card_relabelled_v3": (  # the history card and its trials passed off as version 3's
+        lambda run: (
+            _edit_json(
+                run / "summary.json",
+                lambda s: s.update(test={**s["history"]["v2"], "benchmark_version": 3}),
+            ),
+            (run / "trials_v2.csv").replace(run / "trials.csv"),
+        ),
+        "not under the protocol's card settings: tiers left out: darwin_walk_contact",
+    ),
     "v3_card_claims_five_tiers": (  # the same, its card claiming settings of five
         lambda run: (
             _scored_as(run, tiers=protocol.tiers(2)),
