@@ -29,7 +29,6 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
 import csv
 import dataclasses
-import json
 import math
 import os
 import re
@@ -42,7 +41,7 @@ from absl import flags
 
 from analysis import published
 from cpg_suite import cli, protocol
-from cpg_suite.protocol import admission, aggregate
+from cpg_suite.protocol import admission, aggregate, files
 from cpg_suite.protocol.stats import mean_std_ci95
 
 _SEED = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
@@ -85,8 +84,7 @@ def _add_score_card(dirpath: str, found: list[dict], skipped: list[str]) -> None
     row named after DIR, with no training task and no simulation budget."""
     path = os.path.join(dirpath, "score.json")
     try:
-        with open(path, encoding="utf-8") as f:
-            card = json.load(f)
+        card = files.read_json(path)
         if not isinstance(card, dict) or not isinstance(card.get("tiers"), dict):
             raise ValueError("not a score card")
     except (OSError, ValueError) as e:
@@ -134,13 +132,16 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
             skipped.append(f"{path}: not <method>/<task>/<run>")
             continue
         method, task, run_name = parts[-3], parts[-2], parts[-1]
+        if admission.file_refusal(dirpath):  # nothing of it is read: the board says why
+            _add_incomplete(dirpath, found)
+            continue
         try:
-            with open(path, encoding="utf-8") as f:
-                summary = json.load(f)
+            summary = files.read_json(path)
             if not isinstance(summary, dict):
                 raise ValueError("not an object")
         except (OSError, ValueError) as e:
             skipped.append(f"{path}: {type(e).__name__}")
+            _add_incomplete(dirpath, found)  # the board lists it, with why (admission)
             continue
         config_path = os.path.join(dirpath, "config.json")
         summary = _with_given_budget(summary, config_path)
@@ -193,11 +194,7 @@ def trained_version(config_path: str) -> int:
     """The benchmark version a run trained under: its config's `benchmark_version` setting;
     1 (the study's unlimited physics) for a run made before the setting existed, or with no
     readable config (a score card)."""
-    try:
-        with open(config_path, encoding="utf-8") as f:
-            return int(json.load(f)["settings"].get("benchmark_version", 1))
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return 1
+    return admission.trained_version(os.path.dirname(config_path))
 
 
 def _with_given_budget(summary: dict, config_path: str) -> dict:
@@ -207,8 +204,7 @@ def _with_given_budget(summary: dict, config_path: str) -> dict:
     if "env_steps" not in summary or not os.path.exists(config_path):
         return summary
     try:
-        with open(config_path, encoding="utf-8") as f:
-            given = json.load(f)["settings"]["total_steps"]
+        given = files.read_json(config_path)["settings"]["total_steps"]
     except (OSError, ValueError, KeyError, TypeError):
         return summary
     return {**summary, "budget_control_steps": given}
@@ -462,18 +458,6 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
     return row
 
 
-def card_under(summary: dict, version: int | None) -> dict | None:
-    """A run's test card under a benchmark version: its card if scored under it, else the
-    card kept as history (`verify.upgrade_run`); None: the run has none. `version` None:
-    its card, whatever its version."""
-    test = summary.get("test")
-    if not isinstance(test, dict) or version is None:
-        return test if isinstance(test, dict) else None
-    if test.get("benchmark_version", 1) == version:
-        return test
-    return (summary.get("history") or {}).get(f"v{version}")
-
-
 def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
     """DARwIn-OP runs ranked by their test score (success-weighted distance over their
     version's test tiers), one row per (training task, method, configuration, benchmark
@@ -495,7 +479,7 @@ def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
     groups = defaultdict(list)
     for run in found:
         darwin = run["task"].startswith("darwin_walk") or run["method"] == PRESET_METHOD
-        card = card_under(run["summary"], version)
+        card = admission.card_under(run["summary"], version)
         if darwin and card is not None:
             version_of_card = card.get("benchmark_version", 1)
             trained = _trained_as(run.get("trained_version"))
@@ -572,13 +556,15 @@ def darwin_board(found: list[dict], version: int | None = None) -> tuple[list[di
     Args:
       found: The runs (`find_runs`).
       version: The board's benchmark version; None: the current one
-        (`admission.BOARD_VERSION`), its runs' cards as they stand.
+        (`admission.BOARD_VERSION`).
 
     Returns:
-      `(rows, not_admitted)`.
+      `(rows, not_admitted)`: the rows show the cards admission checked, those under the
+      board's version.
     """
-    admitted, refused = admit(found, version)
-    return darwin_rows(admitted, version), refused
+    board = admission.BOARD_VERSION if version is None else version
+    admitted, refused = admit(found, board)
+    return darwin_rows(admitted, board), refused
 
 
 def history_versions(found: list[dict]) -> list[int]:

@@ -595,7 +595,7 @@ def write_report(runs: str, out: str, gaits: bool = False) -> str:
     found, skipped = leaderboard.find_runs(runs)
     rows = leaderboard.leaderboard_rows(found)
     admitted, refused = leaderboard.admit(found)
-    darwin = leaderboard.darwin_rows(admitted)
+    darwin = leaderboard.darwin_rows(admitted, leaderboard.admission.BOARD_VERSION)
     history = leaderboard.darwin_tables(found, tuple(leaderboard.history_versions(found)))
     _plt()
     os.makedirs(out, exist_ok=True)

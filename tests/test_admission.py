@@ -15,7 +15,7 @@ import pytest
 
 from analysis import leaderboard
 from cpg_suite import cpg, darwin, protocol
-from cpg_suite.protocol import admission, score, verify
+from cpg_suite.protocol import admission, files, score, verify
 from cpg_suite.protocol import card as card_stats
 from cpg_suite.runfiles import exported
 
@@ -41,13 +41,15 @@ def _edit_json(path, change):
     path.write_text(json.dumps(data, indent=2))
 
 
-def _trials(run):
-    with open(run / "trials.csv", newline="", encoding="utf-8") as f:
+def _trials(run, version=None):
+    name = "trials.csv" if version is None else f"trials_v{version}.csv"
+    with open(run / name, newline="", encoding="utf-8") as f:
         return list(csv.DictReader(f))
 
 
-def _write_trials(run, rows):
-    with open(run / "trials.csv", "w", newline="", encoding="utf-8") as f:
+def _write_trials(run, rows, version=None):
+    name = "trials.csv" if version is None else f"trials_v{version}.csv"
+    with open(run / name, "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
@@ -67,7 +69,20 @@ def _scored_as(
             r.update(fell="False", fall_step="0", cause="")
     _write_trials(run, rows)
     summary = json.loads((run / "summary.json").read_text())
-    old = summary["test"]
+    card = _card_of(rows, tiers, summary["test"], steps)
+    (run / "summary.json").write_text(json.dumps({**summary, "test": card}, indent=2))
+
+    def config(c):
+        c["settings"]["test_seeds"] = seeds if config_seeds is None else config_seeds
+        c["settings"]["trial_steps"] = steps if config_steps is None else config_steps
+        c["settings"]["test_tiers"] = list(tiers)
+
+    _edit_json(run / "config.json", config)
+
+
+def _card_of(rows, tiers, old, steps=1000):
+    """The card a trial table (CSV rows) makes, as a card makes it, with `old`'s version and
+    gait-quality medians (which need the simulation)."""
 
     def row(part):
         made = card_stats.row(
@@ -81,20 +96,51 @@ def _scored_as(
         )
         return {**made, "quality": old["all"]["quality"]}
 
-    card = {
-        "benchmark_version": old["benchmark_version"],
-        "tiers": {t: row([r for r in rows if r["tier"] == t]) for t in tiers},
-        "all": row(rows),
-        "scoring_sim_steps": len(rows) * steps * 8,
-    }
-    (run / "summary.json").write_text(json.dumps({**summary, "test": card}, indent=2))
+    return json.loads(
+        json.dumps(
+            {
+                "benchmark_version": old["benchmark_version"],
+                "tiers": {t: row([r for r in rows if r["tier"] == t]) for t in tiers},
+                "all": row(rows),
+                "scoring_sim_steps": len(rows) * steps * 8,
+            }
+        )
+    )
 
-    def config(c):
-        c["settings"]["test_seeds"] = seeds if config_seeds is None else config_seeds
-        c["settings"]["trial_steps"] = steps if config_steps is None else config_steps
-        c["settings"]["test_tiers"] = list(tiers)
 
-    _edit_json(run / "config.json", config)
+def _history_ranked_as_test(run):
+    """The helper's attack: the version-2 card, inflated and rebuilt, shown as the test
+    card while the version-3 card the board checks sits in the history."""
+    rows = [{**r, "distance_m": repr(3 * float(r["distance_m"]))} for r in _trials(run, 2)]
+    summary = json.loads((run / "summary.json").read_text())
+    fake = _card_of(rows, protocol.tiers(2), summary["history"]["v2"])
+    summary = {**summary, "test": fake, "history": {"v3": summary["test"]}}
+    (run / "summary.json").write_text(json.dumps(summary))
+    (run / "trials.csv").replace(run / "trials_v3.csv")
+    _write_trials(run, rows)
+    (run / "trials_v2.csv").unlink()
+
+
+def _history_trials_inflated(run):
+    """Every trial of the version-2 table that did not fail walks 2 m more, its history
+    card made from it: the version-2 board would rank it, verify re-scores only the test."""
+    rows = [
+        {**r, "distance_m": repr(float(r["distance_m"]) + (0 if r["fell"] == "True" else 2))}
+        for r in _trials(run, 2)
+    ]
+    _write_trials(run, rows, 2)
+    summary = json.loads((run / "summary.json").read_text())
+    summary["history"]["v2"] = _card_of(rows, protocol.tiers(2), summary["history"]["v2"])
+    (run / "summary.json").write_text(json.dumps(summary))
+
+
+def _symlink(run, name, target):
+    (run / name).unlink()
+    (run / name).symlink_to(target)
+
+
+def _raw(run, name, text):
+    (run / name).write_text(text)
 
 
 # name -> (how the copied run is forged, the start of the reason it is refused with)
@@ -193,16 +239,89 @@ FORGERIES = {
         lambda run: _edit_json(
             run / "summary.json", lambda s: s["test"].update(benchmark_version=1)
         ),
-        "no card under benchmark version 3 (its card: version 1)",
+        "its test card (version 1) is not its latest: it keeps a version-2 card as history",
+    ),
+    # The cards a run keeps as history: the board checks every card a run holds.
+    "history_ranked_as_test": (
+        _history_ranked_as_test,
+        "its test card (version 2) is not its latest: it keeps a version-3 card as history",
+    ),
+    "history_trials_inflated": (
+        _history_trials_inflated,
+        "its version-2 trials differ from its version-3 trials on darwin_walk, which both",
+    ),
+    "history_card_edited": (
+        lambda run: _edit_json(
+            run / "summary.json",
+            lambda s: s["history"]["v2"]["all"]["success_weighted_distance_m"].update(mean=9.0),
+        ),
+        "its trial table does not produce the card (all: success_weighted_distance_m differs) "
+        "(its version-2 card, trials_v2.csv)",
+    ),
+    "history_not_a_card": (
+        lambda run: _edit_json(run / "summary.json", lambda s: s["history"].update(v2=5)),
+        "summary.json's history holds 'v2', not a card under a version v<n>",
+    ),
+    "history_card_of_v1_tiers": (  # the history card claims another version than its key
+        lambda run: _edit_json(
+            run / "summary.json", lambda s: s["history"]["v2"].update(benchmark_version=1)
+        ),
+        "its history card v2 says it was scored under version 1",
+    ),
+    # What a run says of its training, held to what its config says.
+    "task_relabelled": (
+        lambda run: _edit_json(
+            run / "config.json", lambda c: c["settings"].update(task="darwin_walk_randomized")
+        ),
+        "config.json says it trained on 'darwin_walk_randomized', its folder on 'darwin_walk'",
+    ),
+    "budget_understated": (
+        lambda run: _edit_json(run / "summary.json", lambda s: s.update(evaluations=1000)),
+        "summary.json claims 1000 training trials, fewer than its config's 50 × 50 rounds × 1",
+    ),
+    "budget_negative": (
+        lambda run: _edit_json(run / "summary.json", lambda s: s.update(evaluations=-1)),
+        "summary.json's evaluations is -1, not a count",
+    ),
+    # Files the board may not read, and JSON or CSV a reviewer and a parser read apart.
+    "summary_to_dev_zero": (
+        lambda run: _symlink(run, "summary.json", "/dev/zero"),
+        "summary.json is a symbolic link, not a file of the run's own",
+    ),
+    "trials_outside": (
+        lambda run: _symlink(run, "trials.csv", OTHER_GAIT_RUN + "/trials.csv"),
+        "trials.csv is a symbolic link, not a file of the run's own",
+    ),
+    "versions_huge": (
+        lambda run: os.truncate(run / "versions.json", files.MAX_BYTES + 1),  # sparse
+        f"versions.json holds {files.MAX_BYTES + 1} bytes, over the",
+    ),
+    "summary_nan": (
+        lambda run: _raw(
+            run,
+            "summary.json",
+            (run / "summary.json").read_text().replace('"evaluations": 2501', '"evaluations": NaN'),
+        ),
+        "unreadable run files (ValueError: summary.json: NaN is not a JSON number)",
+    ),
+    "summary_key_twice": (
+        lambda run: _raw(
+            run, "summary.json", '{"test": {}, ' + (run / "summary.json").read_text()[1:]
+        ),
+        "unreadable run files (ValueError: summary.json: the key 'test' appears twice",
+    ),
+    "trials_column_twice": (
+        lambda run: _raw(
+            run,
+            "trials.csv",
+            (run / "trials.csv").read_text().replace("distance_m", "distance_m,distance_m", 1),
+        ),
+        "unreadable run files (ValueError: trials.csv names the column 'distance_m' twice)",
     ),
 }
 
 # Verify checks each card as it stands, not under a board's version.
-AS_VERIFY_SEES_IT = {
-    "card_claims_v1": (  # a version-1 card has version 1's four tiers, not five
-        "not under the protocol's card settings: tiers not of version 1: darwin_walk_contact"
-    )
-}
+AS_VERIFY_SEES_IT: dict[str, str] = {}
 
 
 @pytest.fixture(scope="module")

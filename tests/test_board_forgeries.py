@@ -30,13 +30,13 @@ def _copy(runs, name, source=GAIT_RUN, method="cem", task="darwin_walk"):
     return dest
 
 
-def _rows(run):
-    with open(run / "trials.csv", newline="", encoding="utf-8") as f:
+def _rows(run, name="trials.csv"):
+    with open(run / name, newline="", encoding="utf-8") as f:
         return list(csv.DictReader(f))
 
 
-def _write_rows(run, rows):
-    with open(run / "trials.csv", "w", newline="", encoding="utf-8") as f:
+def _write_rows(run, rows, name="trials.csv"):
+    with open(run / name, "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
@@ -62,21 +62,25 @@ def _seed(run, seed):
 
 def _edit_consistently(run, change):
     """Trials edited by `change(row)` and the card rebuilt from them with the board's own
-    arithmetic (`admission._card_row`): a run the board's file checks cannot tell."""
-    rows = _rows(run)
-    for r in rows:
-        change(r)
-    _write_rows(run, rows)
+    arithmetic (`admission._card_row`), in the test card and in the version-2 card kept as
+    history alike: a run the board's file checks cannot tell."""
     summary = json.loads((run / "summary.json").read_text())
-    trials = admission.read_trials(str(run / "trials.csv"))
-    tiers = list(summary["test"]["tiers"])
-    steps = 1000
-    for tier in tiers:
-        made = admission._jsonable(
-            admission._card_row([t for t in trials if t["tier"] == tier], steps)
-        )
-        summary["test"]["tiers"][tier].update(made)
-    summary["test"]["all"].update(admission._jsonable(admission._card_row(trials, steps)))
+    cards = {"trials.csv": summary["test"]}
+    if (run / "trials_v2.csv").exists():
+        cards["trials_v2.csv"] = summary["history"]["v2"]
+    for name, card in cards.items():
+        rows = _rows(run, name)
+        for r in rows:
+            change(r)
+        _write_rows(run, rows, name)
+        trials = admission.read_trials(str(run / name))
+        steps = 1000
+        for tier in card["tiers"]:
+            made = admission._jsonable(
+                admission._card_row([t for t in trials if t["tier"] == tier], steps)
+            )
+            card["tiers"][tier].update(made)
+        card["all"].update(admission._jsonable(admission._card_row(trials, steps)))
     (run / "summary.json").write_text(json.dumps(summary, indent=2))
 
 
@@ -358,3 +362,37 @@ def test_a_copy_nudged_past_a_micrometre_and_a_backdated_copy_are_still_copies(t
     (backdated / "config.json").write_text(json.dumps(config))
     verify.write_ledger(str(tmp_path / "protocol" / admission.LEDGER), {str(original): []})
     assert set(_refused(runs)) == {"my_method/darwin_walk/K50_seed0"}
+
+
+def test_a_copy_with_a_forged_ledger_row_that_is_not_a_reproduction_does_not_come_first(
+    tmp_path,
+):
+    """The second attack on the ledger: a byte copy, backdated, with a row written by hand
+    that says it was sampled or differed, beside an original the ledger records as
+    upgraded and reproduced. Only a reproduced full or upgrade row puts a run first."""
+    runs = tmp_path / "protocol" / "runs"
+    original = _copy(runs, "K50_seed0")
+    copy = _copy(runs, "K50_seed0", method="my_method")
+    config = json.loads((copy / "config.json").read_text())
+    config["environment"]["started_utc"] = "2000-01-01T00:00:00Z"
+    (copy / "config.json").write_text(json.dumps(config))
+    ledger = str(tmp_path / "protocol" / admission.LEDGER)
+    verify.write_ledger(ledger, {str(original): []}, upgrade=(2, 3))
+    for forged in ({"sample_trials": 5}, {}):
+        problems = [] if forged else ["trial 0 differs"]
+        verify.write_ledger(ledger, {str(copy): problems}, **forged)
+        assert set(_refused(runs)) == {"my_method/darwin_walk/K50_seed0"}, forged
+
+
+def test_two_folders_of_one_seed_are_one_seed(tmp_path):
+    """`seed0` and `seed00` of one configuration (another run each, the second's config
+    seed set to 0): a configuration's seeds are distinct runs, the second is refused."""
+    runs = tmp_path / "runs"
+    _copy(runs, "K50_seed0")
+    second = _copy(runs, "K50_seed00", source=OTHER_RUN)
+    _seed(second, 0)
+    (reason,) = _refused(runs).values()
+    assert reason.startswith("a second run of seed 0 of its configuration (cem/darwin_walk/K50_")
+    _seed(second, 1)
+    shutil.move(second, runs / "cem" / "darwin_walk" / "K50_seed1")
+    assert _refused(runs) == {}

@@ -42,7 +42,11 @@ def test_leaderboard_rows_and_published_values(tmp_path, capsys):
     (runs / "cem" / "darwin_walk" / "broken_seed0" / "summary.json").write_text("[1, 2")
     out = tmp_path / "out" / "leaderboard.csv"
     line = leaderboard.write_tables(str(runs), str(out))
-    assert line.startswith("5 runs: ") and str(out) in line
+    # The broken run is counted and listed as not admitted, with why (and on stderr).
+    assert line.startswith("6 runs: ") and str(out) in line
+    not_admitted = _read(out.parent / "darwin_not_admitted.csv")
+    (broken,) = [r for r in not_admitted if r["run"].endswith("broken_seed0")]
+    assert broken["reason"].startswith("missing ") or "unreadable" in broken["reason"]
     rows = _read(out)
     assert list(rows[0]) == leaderboard.LEADERBOARD_FIELDS
     k50 = [r for r in rows if r["config"] == "K50_n0.8_e2" and r["metric"] == "best_distance_m"][0]

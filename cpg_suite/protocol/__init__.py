@@ -62,6 +62,23 @@ def trained_alike(version: int) -> int:
     return _TRAINED_AS[version]
 
 
+def scored_alike(old: int, new: int) -> tuple[str, ...]:
+    """The tiers whose trials a card under `old` and one under `new` score alike: those
+    both versions have, where their physics is the same (`trained_alike`: the versions
+    differ in the supply limit or only by a tier added). A run re-scored from `old` to
+    `new` holds the same trials on these tiers in both tables (`verify.upgrade_run`).
+
+    Args:
+      old, new: Keys of `VERSIONS`.
+
+    Raises:
+      ValueError: On an unknown version.
+    """
+    if trained_alike(old) != trained_alike(new):
+        return ()
+    return tuple(t for t in tiers(old) if t in tiers(new))
+
+
 def tiers(version: int = BENCHMARK_VERSION) -> tuple[str, ...]:
     """The test tiers of a benchmark version's score card, in the card's order.
 

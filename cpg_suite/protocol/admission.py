@@ -2,6 +2,8 @@
 
 A DARwIn-OP run is ranked or listed on the board of a benchmark version only if
 
+* every file of it that the board or verify reads is a plain file of its own, of bounded
+  size, strict JSON and CSV (`cpg_suite.protocol.files`);
 * its folder holds what `cpg_suite.protocol.verify` needs to score it again: `config.json`
   (the card's settings), `summary.json` (the card), the trial table of the card
   (`trials.csv`, or `trials_v<n>.csv` for a card kept as history), the gait or policy
@@ -12,14 +14,19 @@ A DARwIn-OP run is ranked or listed on the board of a benchmark version only if
   order, all 50 test seeds, 1000-step trials, the supply limit of its version — as its
   config says verify would score it, and as the card shows of itself;
 * its config's benchmark version is the one its first card was made under (a run keeps
-  the card of the version it trained under as history when re-scored under a later one);
-* its trial table holds the card's tiers × test seeds and produces the card: every
-  statistic but the gait-quality medians (which need the simulation) is made again from
-  the table with the card's own arithmetic (`card.row`) and must be equal, bit for bit;
+  the card of the version it trained under as history when re-scored under a later one),
+  and its test card is its latest;
+* each of its cards' trial tables holds the card's tiers × test seeds and produces the
+  card: every statistic but the gait-quality medians (which need the simulation) is made
+  again from the table with the card's own arithmetic (`card.row`) and must be equal, bit
+  for bit; a card kept as history holds the test card's trials on the tiers both versions
+  score alike (`protocol.scored_alike`);
+* what it says of its training holds together (`training_refusal`): its task, its budget;
 * an action table (`selected_actions.npy`) has one row of 12 float64 actions per control
   step of a trial (its `.npy` header says so; the array is not read);
 * it is no copy: no earlier run of any configuration or method has the same trial outcomes
-  or the same gait or policy, as values (`cpg_suite.protocol.copies`).
+  or the same gait or policy, as values (`cpg_suite.protocol.copies`), and no other run of
+  its configuration has its seed.
 
 Everything else is refused with a one-line reason (`refusals`). Nothing here executes code
 from a run folder: JSON and CSV are parsed, the `.npy` header is parsed as data, the gait
@@ -32,6 +39,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import io
 import json
 import os
 import re
@@ -41,7 +49,7 @@ import numpy as np
 
 from cpg_suite import cpg, electrical, protocol
 from cpg_suite.protocol import card as card_stats
-from cpg_suite.protocol import copies, sample
+from cpg_suite.protocol import copies, files, sample
 
 BOARD_VERSION = protocol.BENCHMARK_VERSION  # the version the leaderboard ranks by default
 GAIT = "selected_params.json"
@@ -63,9 +71,9 @@ SEED_NAME = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
 def artifact_files(run_dir: str) -> tuple[str, ...]:
     """The files verify scores a run from: the first of `ARTIFACTS` whose first file the
     folder holds; () for none."""
-    for files in ARTIFACTS:
-        if os.path.exists(os.path.join(run_dir, files[0])):
-            return files
+    for names in ARTIFACTS:
+        if os.path.exists(os.path.join(run_dir, names[0])):
+            return names
     return ()
 
 
@@ -108,10 +116,15 @@ def read_trials(path: str) -> list[dict]:
 
     Raises:
       OSError: If it cannot be read.
-      KeyError, ValueError: On a missing column or a value of the wrong kind.
+      KeyError, ValueError: On a missing column, a column named twice, a value of the
+        wrong kind, or a file the board may not read (`files.refusal`).
     """
-    with open(path, newline="", encoding="utf-8") as f:
-        rows = list(csv.DictReader(f))
+    reader = csv.DictReader(io.StringIO(files.read_text(path), newline=""))
+    header = reader.fieldnames or []
+    twice = sorted({name for name in header if header.count(name) > 1})
+    if twice:
+        raise ValueError(f"{os.path.basename(path)} names the column {twice[0]!r} twice")
+    rows = list(reader)
     return [
         {
             "tier": r["tier"],
@@ -247,8 +260,7 @@ def card_under(summary: dict, version: int | None) -> dict | None:
 
 
 def _read_json(path: str) -> dict:
-    with open(path, encoding="utf-8") as f:
-        value = json.load(f)
+    value = files.read_json(path)
     if not isinstance(value, dict):
         raise ValueError(f"{os.path.basename(path)} is not a JSON object")
     return value
@@ -270,6 +282,31 @@ def looks_like_run(dirpath: str, names: Iterable[str]) -> bool:
     )
 
 
+def run_files(run_dir: str) -> list[str]:
+    """The names of the files the board or verify reads of a run folder: its config,
+    summary, versions, trial tables and gait or policy files, as the folder holds them."""
+    read = ("config.json", "summary.json", "versions.json", *(n for a in ARTIFACTS for n in a))
+    return sorted(
+        n
+        for n in os.listdir(run_dir)
+        if n in read or (n.startswith("trials") and n.endswith(".csv"))
+    )
+
+
+def file_refusal(run_dir: str) -> str | None:
+    """Why a run folder's files may not be read (`files.refusal` of each of `run_files`:
+    a symbolic link, not a regular file, too large); None: they may."""
+    try:
+        names = run_files(run_dir)
+    except OSError as e:
+        return f"its folder cannot be listed ({type(e).__name__})"
+    for name in names:
+        reason = files.refusal(os.path.join(run_dir, name))
+        if reason:
+            return reason
+    return None
+
+
 def run_refusal(run_dir: str, version: int | None = None, name: str | None = None) -> str | None:
     """Why the board of `version` refuses one run folder (None: admitted, copies aside).
 
@@ -288,6 +325,9 @@ def run_refusal(run_dir: str, version: int | None = None, name: str | None = Non
             "a submission's half-written folder: its process ended before the run was "
             "complete (delete it and submit again)"
         )
+    reason = file_refusal(run_dir)
+    if reason:
+        return reason
     missing = missing_files(run_dir)
     if missing:
         return "missing " + ", ".join(missing)
@@ -297,26 +337,109 @@ def run_refusal(run_dir: str, version: int | None = None, name: str | None = Non
         return f"unreadable run files ({type(e).__name__}: {e})"
 
 
-def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
-    summary = _read_json(os.path.join(run_dir, "summary.json"))
-    settings = _read_json(os.path.join(run_dir, "config.json")).get("settings")
-    if not isinstance(settings, dict):
-        return "config.json holds no settings"
+HISTORY_KEY = re.compile(r"^v(?P<version>[1-9]\d*)$")
+
+
+def cards_of(summary: dict) -> dict[int, dict] | str:
+    """Every card a run holds, by benchmark version: its test card, which is its latest,
+    and those kept as history (`verify.upgrade_run`), each under its own version.
+
+    Args:
+      summary: The run's summary.
+
+    Returns:
+      {version: card}, or a one-line reason the summary's cards do not hold together.
+    """
     test = summary.get("test")
     if not isinstance(test, dict):
         return "summary.json holds no test card"
     current = test.get("benchmark_version", 1)
-    card = card_under(summary, version)
-    if card is None:
+    if current not in protocol.VERSIONS or isinstance(current, bool):
+        known = sorted(protocol.VERSIONS)
+        return f"its test card claims benchmark version {current!r}, not one of {known}"
+    history = summary.get("history") or {}
+    if not isinstance(history, dict):
+        return "summary.json's history is not an object of cards"
+    cards = {current: test}
+    for key, card in history.items():
+        match = HISTORY_KEY.match(key)
+        if not match or not isinstance(card, dict):
+            return f"summary.json's history holds {key!r}, not a card under a version v<n>"
+        kept = int(match["version"])
+        claimed = card.get("benchmark_version", 1)
+        if claimed != kept:
+            return f"its history card {key} says it was scored under version {claimed!r}"
+        if kept >= current:
+            return (
+                f"its test card (version {current}) is not its latest: it keeps a version-"
+                f"{kept} card as history"
+            )
+        cards[kept] = card
+    return cards
+
+
+def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
+    summary = _read_json(os.path.join(run_dir, "summary.json"))
+    config = _read_json(os.path.join(run_dir, "config.json"))
+    settings = config.get("settings")
+    if not isinstance(settings, dict):
+        return "config.json holds no settings"
+    cards = cards_of(summary)
+    if isinstance(cards, str):
+        return cards
+    current = max(cards)
+    if version is not None and version not in cards:
         return f"no card under benchmark version {version} (its card: version {current})"
-    card_version = card.get("benchmark_version", 1)
-    trials_name = trials_file(card_version, current)
-    if not os.path.isfile(os.path.join(run_dir, trials_name)):
-        return f"missing {trials_name}"
     if not isinstance(settings.get("test_seeds"), int) or not isinstance(
         settings.get("trial_steps"), int
     ):
         return "config.json has no test_seeds or trial_steps (the card's settings)"
+    trained = settings.get("benchmark_version", 1)
+    if trained not in protocol.VERSIONS:
+        known = sorted(protocol.VERSIONS)
+        return f"config.json claims benchmark version {trained!r}, not one of {known}"
+    if min(cards) != trained:
+        return (
+            f"config.json claims benchmark version {trained}, but the run's cards are of "
+            f"version {', '.join(map(str, sorted(cards)))}: its first card is made under "
+            "the version it trained under"
+        )
+    reason = training_refusal(run_dir, settings, summary)
+    if reason:
+        return reason
+    steps = settings["trial_steps"]
+    if artifact_files(run_dir) == (ACTIONS,):
+        reason = actions_refusal(os.path.join(run_dir, ACTIONS), steps)
+        if reason:
+            return reason
+    # The board's card first (its reason is the one a reader of that board needs), then
+    # every other card the run holds: the board ranks one, the others rank elsewhere.
+    order = sorted(cards, key=lambda v: (v != version, -v))
+    tables = {}
+    for card_version in order:
+        reason, tables[card_version] = _card_refusal(
+            run_dir, settings, cards[card_version], card_version, current
+        )
+        if reason:
+            return reason
+    for kept in cards:
+        reason = _alike_refusal(tables[kept], tables[current], kept, current)
+        if reason:
+            return reason
+    match = SEED_NAME.match(name)
+    if match and "seed" in settings and settings["seed"] != int(match["seed"]):
+        return f"config.json's seed {settings['seed']} is not the seed of its folder's name"
+    return None
+
+
+def _card_refusal(
+    run_dir: str, settings: dict, card: dict, card_version: int, current: int
+) -> tuple[str | None, list[dict] | None]:
+    """Why one of a run's cards is not a protocol card its trial table produces (None),
+    and the table."""
+    trials_name = trials_file(card_version, current)
+    if not os.path.isfile(os.path.join(run_dir, trials_name)):
+        return f"missing {trials_name}", None
     steps = settings["trial_steps"]
     deviations = card_stats.deviations(
         protocol.card_tiers(settings.get("test_tiers"), card_version),
@@ -333,29 +456,63 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
             tuple(scored), settings["test_seeds"], steps, card_version
         )
     if deviations:
-        return "not under the protocol's card settings: " + "; ".join(deviations)
-    trained = settings.get("benchmark_version", 1)
-    if trained not in protocol.VERSIONS:
-        known = sorted(protocol.VERSIONS)
-        return f"config.json claims benchmark version {trained!r}, not one of {known}"
-    scored = {current} | {int(k.lstrip("v")) for k in summary.get("history") or {}}
-    if min(scored) != trained:
-        return (
-            f"config.json claims benchmark version {trained}, but the run's cards are of "
-            f"version {', '.join(map(str, sorted(scored)))}: its first card is made under "
-            "the version it trained under"
-        )
-    if artifact_files(run_dir) == (ACTIONS,):
-        reason = actions_refusal(os.path.join(run_dir, ACTIONS), steps)
-        if reason:
-            return reason
+        where = "" if card_version == current else f" (its version-{card_version} card)"
+        return f"not under the protocol's card settings{where}: " + "; ".join(deviations), None
     trials = read_trials(os.path.join(run_dir, trials_name))
     reason = trials_refusal(card, trials, steps)
-    if reason:
-        return reason
-    match = SEED_NAME.match(name)
-    if match and "seed" in settings and settings["seed"] != int(match["seed"]):
-        return f"config.json's seed {settings['seed']} is not the seed of its folder's name"
+    if reason and card_version != current:
+        reason = f"{reason} (its version-{card_version} card, {trials_name})"
+    return reason, trials
+
+
+def _alike_refusal(kept: list[dict], latest: list[dict], old: int, new: int) -> str | None:
+    """Why a card kept as history and the test card disagree on a tier both score alike
+    (`protocol.scored_alike`: a re-score keeps those trials), None: they agree."""
+    alike = protocol.scored_alike(old, new)
+    for tier in alike:
+        mine = [t for t in kept if t["tier"] == tier]
+        now = [t for t in latest if t["tier"] == tier]
+        if mine != now:
+            return (
+                f"its version-{old} trials differ from its version-{new} trials on {tier}, "
+                f"which both versions score alike (trials_v{old}.csv, trials.csv)"
+            )
+    return None
+
+
+def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
+    """Why what a run says of its training does not hold together (None: it does): the
+    task in its config is its folder's, its budget is a count, no less than its config
+    gave it (population × rounds × seeds a trial; a learner's `total_steps`). The training
+    itself is the submitter's word: only a re-run shows it (docs/protocol.md#admission).
+
+    Args:
+      run_dir: The run folder `<method>/<task>/<run_name>`.
+      settings: Its config's settings.
+      summary: Its summary.
+    """
+    task = os.path.basename(os.path.dirname(os.path.normpath(os.path.abspath(run_dir))))
+    if "task" in settings and settings["task"] != task:
+        return f"config.json says it trained on {settings['task']!r}, its folder on {task!r}"
+    for key in ("evaluations", "env_steps", "sim_steps"):
+        value = summary.get(key)
+        counts = isinstance(value, int) and not isinstance(value, bool) and value >= 0
+        if key in summary and not counts:
+            return f"summary.json's {key} is {value!r}, not a count"
+    given = [settings.get(k) for k in ("population", "rounds")]
+    if "evaluations" in summary and all(isinstance(g, int) for g in given):
+        seeds = settings.get("eval_seeds", 1)
+        if summary["evaluations"] < given[0] * given[1] * seeds:
+            return (
+                f"summary.json claims {summary['evaluations']} training trials, fewer than "
+                f"its config's {given[0]} × {given[1]} rounds × {seeds} seeds"
+            )
+    total = settings.get("total_steps")
+    if isinstance(total, int) and "env_steps" in summary and summary["env_steps"] < total:
+        return (
+            f"summary.json claims {summary['env_steps']} training steps, fewer than its "
+            f"config's total_steps {total}"
+        )
     return None
 
 
@@ -366,7 +523,12 @@ LEDGER_FIELDS = ("run", "files_sha256", "check", "trials", "result", "date_utc",
 def run_digest(run_dir: str) -> str:
     """The SHA-256 of the files verify reads of a run (config, summary, trial tables,
     versions, the gait or policy), by name: a run re-scored is that run only while this
-    holds."""
+    holds.
+
+    Raises:
+      OSError: If a file cannot be read.
+      ValueError: If the board may not read one (`files.refusal`).
+    """
     names = sorted(
         n
         for n in os.listdir(run_dir)
@@ -375,8 +537,7 @@ def run_digest(run_dir: str) -> str:
     )
     digest = hashlib.sha256()
     for name in names:
-        with open(os.path.join(run_dir, name), "rb") as f:
-            data = f.read()
+        data = files.read_bytes(os.path.join(run_dir, name))
         digest.update(f"{name}\0{len(data)}\0".encode())
         digest.update(data)
     return digest.hexdigest()
@@ -397,11 +558,18 @@ def read_ledger(path: str) -> dict[str, dict]:
 
 def rescored_in_full(run_dir: str, ledger: dict[str, dict]) -> str | None:
     """The date a ledger says `run_dir` was re-scored in full and reproduced, if its files
-    are still those it checked (None: not so)."""
+    are still those it checked (None: not so, or files the board may not read)."""
     row = ledger.get(run_key(run_dir))
     if not row or row["check"] != "full" or row["result"] != "reproduced":
         return None
-    return row["date_utc"] if row["files_sha256"] == run_digest(run_dir) else None
+    return row["date_utc"] if _digest_or_none(run_dir) == row["files_sha256"] else None
+
+
+def _digest_or_none(run_dir: str) -> str | None:
+    try:
+        return run_digest(run_dir)
+    except (OSError, ValueError):
+        return None
 
 
 def run_identity(run_dir: str) -> tuple[str, str, str]:
@@ -416,9 +584,8 @@ def trained_version(run_dir: str) -> int:
     """The benchmark version a run trained under: its config's `benchmark_version` (1 for a
     run made before the setting existed, or without a readable config)."""
     try:
-        return int(
-            _read_json(os.path.join(run_dir, "config.json"))["settings"].get("benchmark_version", 1)
-        )
+        settings = _read_json(os.path.join(run_dir, "config.json"))["settings"]
+        return int(settings.get("benchmark_version", 1))
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return 1
 
@@ -427,9 +594,10 @@ def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, s
     """The runs the board of `version` refuses, each with its reason (`run_refusal`), and
     the copies: a run whose trial outcomes, or whose gait or policy, equal as values those
     of an earlier run trained alike (`cpg_suite.protocol.copies`),
-    in any configuration of any method. Earlier: a run the ledger beside the tree records
-    with its present files (`_on_record`), then the run that says it started first
-    (`copies.started`), then path order. Runs trained under versions of different training
+    in any configuration of any method; and a second run of one seed of a configuration
+    (`seed0` and `seed00`). Earlier: a run the ledger beside the tree records as
+    reproduced with its present files (`_on_record`), then the run that says it started
+    first (`copies.started`), then path order. Runs trained under versions of different training
     physics (`protocol.trained_alike`) are not compared: a version-1 run is listed beside
     its version-2 re-run, never ranked with it (six shipped CEM seeds trained to the same
     gait under both: the limit never bit).
@@ -442,25 +610,47 @@ def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, s
       {run folder: reason} for the refused runs.
     """
     run_dirs = list(run_dirs)
-    refused, kept = {}, []
+    refused, kept, seeds = {}, [], {}
     for run_dir in sorted(run_dirs, key=lambda d: (not _on_record(d), copies.started(d), d)):
         reason = run_refusal(run_dir, version)
         if reason is None:
             reason, fingerprint = _copy_refusal(run_dir, version, kept)
-            if reason is None:
-                kept.append((run_dir, _trained_as(run_dir), fingerprint))
-        if reason is not None:
+        if reason is None:
+            reason, seed = _seed_refusal(run_dir, seeds)
+        if reason is None:
+            kept.append((run_dir, _trained_as(run_dir), fingerprint))
+            seeds[seed] = run_dir
+        else:
             refused[run_dir] = reason
     return {d: refused[d] for d in run_dirs if d in refused}
 
 
 def _on_record(run_dir: str) -> bool:
-    """Whether the ledger beside the run's tree (`LEDGER`) records this run, with the files it
-    holds now: such a run entered first, whatever start time a copy's config claims."""
+    """Whether the ledger beside the run's tree (`LEDGER`) records this run as re-scored
+    (in full, or its trials when upgraded) and reproduced, with the files it holds now:
+    such a run entered first, whatever start time a copy's config claims. A sampled or
+    differing row does not count."""
     tree = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(run_dir))))
     ledger = read_ledger(os.path.join(os.path.dirname(tree), LEDGER))
     row = ledger.get(run_key(run_dir))
-    return bool(row) and row["files_sha256"] == run_digest(run_dir)
+    return (
+        bool(row)
+        and (row["check"] == "full" or row["check"].startswith("upgrade "))
+        and row["result"] == "reproduced"
+        and row["files_sha256"] == _digest_or_none(run_dir)
+    )
+
+
+def _seed_refusal(run_dir: str, seeds: dict) -> tuple[str | None, tuple]:
+    """Why an admissible run is a second run of a seed of its configuration (None: it is
+    not), and its key in `seeds` ({(method, task, configuration, training physics, seed):
+    the run kept})."""
+    settings = _read_json(os.path.join(run_dir, "config.json"))["settings"]
+    key = (*run_identity(run_dir), _trained_as(run_dir), settings.get("seed"))
+    if settings.get("seed") is not None and key in seeds:
+        where = os.path.join(*_tail(seeds[key]))
+        return f"a second run of seed {key[-1]} of its configuration ({where}: the first)", key
+    return None, key
 
 
 def _copy_refusal(run_dir: str, version: int | None, kept: list) -> tuple:

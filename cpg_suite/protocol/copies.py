@@ -29,13 +29,13 @@ from __future__ import annotations
 import ast
 import dataclasses
 import hashlib
-import json
 import os
 import zipfile
 
 import numpy as np
 
 from cpg_suite import feedback
+from cpg_suite.protocol import files as run_files
 
 # m: two trial tables whose outcomes are equal and whose distances all lie this close are
 # one run's (a choice: the closest two shipped tables with equal outcomes differ by 4.1 m;
@@ -120,6 +120,8 @@ def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple 
         if zipfile.is_zipfile(file_path):
             with zipfile.ZipFile(file_path) as z:
                 for member in sorted(z.namelist()):
+                    if z.getinfo(member).file_size > run_files.MAX_BYTES:  # no zip bomb
+                        raise ValueError(f"{file_name}'s {member} unpacks to over the limit")
                     parts += [member.encode(), z.read(member)]
         else:
             with open(file_path, "rb") as f:
@@ -173,8 +175,8 @@ def started(run_dir: str) -> str:
     """When a run says it started (its config's `environment.started_utc`; "" if it does
     not say): the older of two copies is the original (ties: path order)."""
     try:
-        with open(os.path.join(run_dir, "config.json"), encoding="utf-8") as f:
-            value = json.load(f)["environment"]["started_utc"]
+        config = run_files.read_json(os.path.join(run_dir, "config.json"))
+        value = config["environment"]["started_utc"]
     except (OSError, ValueError, KeyError, TypeError):
         return "~"  # after every date: a run that does not say comes last
     return value if isinstance(value, str) else "~"

@@ -1,0 +1,97 @@
+"""A run folder's files, read as the board reads them: plain files of the folder's own, of a
+bounded size, parsed strictly (docs/protocol.md#admission).
+
+A run folder comes from whoever submitted it. Before anything in it is parsed, each file
+the board or verify reads must be a regular file (not a symbolic link, which could point at
+another run's files, at a file outside the tree or at a device such as `/dev/zero`) of at
+most `MAX_BYTES`; JSON must be strict (no repeated key, whose first and last values a
+reader and a reviewer see differently; no NaN or Infinity, which JSON does not have); a
+CSV table's header names each column once.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+
+# Bytes a run file may hold (a choice: 30 times the largest shipped run file, a 1.9 MB
+# Stable-Baselines3 zip; a trial table is 15 kB, a summary 30 kB).
+MAX_BYTES = 64 * 2**20
+
+
+def refusal(path: str) -> str | None:
+    """Why a run file may not be read (None: it may): a symbolic link, not a regular file,
+    or larger than `MAX_BYTES`. A missing file is the caller's question (None here).
+
+    Args:
+      path: The file's path.
+
+    Returns:
+      A one-line reason naming the file, or None.
+    """
+    name = os.path.basename(path)
+    try:
+        info = os.lstat(path)
+    except FileNotFoundError:
+        return None
+    except OSError as e:
+        return f"{name} cannot be read ({type(e).__name__})"
+    if stat.S_ISLNK(info.st_mode):
+        return f"{name} is a symbolic link, not a file of the run's own"
+    if not stat.S_ISREG(info.st_mode):
+        return f"{name} is not a regular file"
+    if info.st_size > MAX_BYTES:
+        return f"{name} holds {info.st_size} bytes, over the {MAX_BYTES} a run file may hold"
+    return None
+
+
+def read_bytes(path: str) -> bytes:
+    """A run file's bytes, if `refusal` allows it.
+
+    Raises:
+      OSError: If it cannot be read.
+      ValueError: With `refusal`'s reason.
+    """
+    reason = refusal(path)
+    if reason:
+        raise ValueError(reason)
+    with open(path, "rb") as f:
+        return f.read(MAX_BYTES + 1)
+
+
+def _strict_object(pairs: list[tuple[str, object]]) -> dict:
+    keys = [k for k, _ in pairs]
+    repeated = sorted({k for k in keys if keys.count(k) > 1})
+    if repeated:
+        raise ValueError(f"the key {repeated[0]!r} appears twice in one object")
+    return dict(pairs)
+
+
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not a JSON number")
+
+
+def read_json(path: str) -> object:
+    """A run's JSON file, strictly: a regular file (`refusal`), each key once per object,
+    no NaN or Infinity.
+
+    Raises:
+      OSError: If it cannot be read.
+      ValueError: If it may not be read, or is not strict JSON (the message says why).
+    """
+    text = read_bytes(path).decode("utf-8")
+    try:
+        return json.loads(text, object_pairs_hook=_strict_object, parse_constant=_no_constant)
+    except ValueError as e:
+        raise ValueError(f"{os.path.basename(path)}: {e}") from None
+
+
+def read_text(path: str) -> str:
+    """A run's text file (a CSV table), if `refusal` allows it.
+
+    Raises:
+      OSError: If it cannot be read.
+      ValueError: If it may not be read.
+    """
+    return read_bytes(path).decode("utf-8")
