@@ -516,6 +516,42 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
     return None
 
 
+def unvouched_history(summary: dict) -> list[tuple[int, dict]]:
+    """The cards a run keeps as history that its test trials do not vouch for, by version:
+    those with a tier whose physics differs from the test card's (`protocol.scored_alike`;
+    a version-1 card, made without the supply limit). The others' tables the board holds
+    to the test card's (`_alike_refusal`).
+
+    Args:
+      summary: A run's summary.
+
+    Raises:
+      ValueError: If its cards do not hold together (`cards_of`).
+    """
+    cards = cards_of(summary)
+    if isinstance(cards, str):
+        raise ValueError(cards)
+    current = max(cards)
+    return [
+        (version, kept)
+        for version, kept in sorted(cards.items())
+        if version != current
+        and not set(kept["tiers"]) <= set(protocol.scored_alike(version, current))
+    ]
+
+
+def full_check_trials(summary: dict) -> int:
+    """How many trials a full re-score of a run scores (`verify.verify_run`): its test
+    card's and those of the cards it keeps as history that its test trials do not vouch
+    for (`unvouched_history`), each every test seed of its tiers.
+
+    Raises:
+      ValueError: If its cards do not hold together (`cards_of`).
+    """
+    cards = [summary["test"], *(kept for _, kept in unvouched_history(summary))]
+    return sum(len(card["tiers"]) * len(protocol.TEST) for card in cards)
+
+
 LEDGER = "rescored.csv"  # beside a run tree: what re-scored each run (`verify --record`)
 LEDGER_FIELDS = ("run", "files_sha256", "check", "trials", "result", "date_utc", "commit")
 
@@ -562,7 +598,13 @@ def rescored_in_full(run_dir: str, ledger: dict[str, dict]) -> str | None:
     row = ledger.get(run_key(run_dir))
     if not row or row["check"] != "full" or row["result"] != "reproduced":
         return None
-    return row["date_utc"] if _digest_or_none(run_dir) == row["files_sha256"] else None
+    if _digest_or_none(run_dir) != row["files_sha256"]:
+        return None
+    try:  # a row of an earlier check that scored fewer of its cards is no full re-score
+        scored = full_check_trials(_read_json(os.path.join(run_dir, "summary.json")))
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+    return row["date_utc"] if row["trials"] == str(scored) else None
 
 
 def _digest_or_none(run_dir: str) -> str | None:

@@ -568,6 +568,11 @@ def _store_card(run_dir: str, card: dict) -> None:
     summary_path = os.path.join(run_dir, "summary.json")
     summary = runs.read_json(summary_path)
     runs.write_json(summary_path, {**summary, "test": _jsonable(score.stored_card(card))})
+    _record_scoring(run_dir)
+
+
+def _record_scoring(run_dir: str) -> None:
+    """Records in a shipped run's versions.json the versions its cards were scored with."""
     versions_path = os.path.join(run_dir, "versions.json")
     versions = runs.read_json(versions_path)
     versions["scored_with"] = runs.environment_record()
@@ -580,10 +585,14 @@ def rescore_run(
     trust_code: bool = False,
     trusted: frozenset[str] | None = None,
 ) -> None:
-    """Re-scores a shipped run and stores its card and trials, whatever they were.
+    """Re-scores a shipped run and stores its cards and trials, whatever they were.
 
     For a change to the code that runs a shipped policy, not to the policy: its test card
-    and trials are made again and recorded with the versions they were scored with.
+    and the cards it keeps as history that the test trials do not vouch for
+    (`admission.unvouched_history`) are made again; each that changed is stored with its
+    trials, and
+    the versions it was scored with. A run whose cards all reproduce keeps its files, byte
+    for byte (and its ledger row).
 
     Args:
       run_dir: A shipped run.
@@ -595,8 +604,27 @@ def rescore_run(
       UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
     card, trials = rescore(run_dir, threads=threads, trust_code=trust_code, trusted=trusted)
-    write_trials(os.path.join(run_dir, "trials.csv"), trials)
-    _store_card(run_dir, card)
+    summary_path = os.path.join(run_dir, "summary.json")
+    summary = runs.read_json(summary_path)
+    if trials != read_trials(os.path.join(run_dir, "trials.csv")) or summary["test"] != (
+        _jsonable(score.stored_card(card))
+    ):
+        write_trials(os.path.join(run_dir, "trials.csv"), trials)
+        _store_card(run_dir, card)
+    config = runs.read_json(os.path.join(run_dir, "config.json"))
+    for version, kept in admission.unvouched_history(runs.read_json(summary_path)):
+        card, trials = score_run(
+            run_dir, card_settings(config, None, threads, kept), trust_code, trusted
+        )
+        name = history_trials_file(version)
+        fresh = _jsonable(score.stored_card(card))
+        if trials == read_trials(os.path.join(run_dir, name)) and fresh == kept:
+            continue
+        write_trials(os.path.join(run_dir, name), trials)
+        summary = runs.read_json(summary_path)
+        history = {**summary["history"], f"v{version}": fresh}
+        runs.write_json(summary_path, {**summary, "history": history})
+        _record_scoring(run_dir)
 
 
 def verify_run(
@@ -606,7 +634,9 @@ def verify_run(
     trust_code: bool = False,
     trusted: frozenset[str] | None = None,
 ) -> list[str]:
-    """Re-scores one shipped run; the differences from what it stores (empty: none).
+    """Re-scores one shipped run, its test card and the cards it keeps as history that its
+    test trials do not vouch for (`history_problems`); the differences from what it stores
+    (empty: none).
 
     Args:
       run_dir: A shipped run.
@@ -629,10 +659,51 @@ def verify_run(
     if trials != stored_trials:
         differ = sum(a != b for a, b in zip(trials, stored_trials))
         problems.append(f"{differ or 'the number of'} trials differ from trials.csv")
-    if not quick:
-        summary = runs.read_json(os.path.join(run_dir, "summary.json"))
-        if _jsonable(score.stored_card(card)) != summary["test"]:
-            problems.append("the score card differs from summary.json")
+    summary = runs.read_json(os.path.join(run_dir, "summary.json"))
+    if not quick and _jsonable(score.stored_card(card)) != summary["test"]:
+        problems.append("the score card differs from summary.json")
+    return problems + history_problems(run_dir, summary, seeds, threads, trust_code, trusted)
+
+
+def history_problems(
+    run_dir: str,
+    summary: dict,
+    seeds: int | None = None,
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+) -> list[str]:
+    """Re-scores the cards a run keeps as history that its test trials do not vouch for:
+    those of a version whose physics differs from the test card's on some tier
+    (`protocol.scored_alike`; a version-1 card, made without the supply limit). A card of
+    tiers all scored alike needs no simulation: the board holds its table to the test
+    card's (`admission`), which `verify_run` re-scores.
+
+    Args:
+      run_dir: A shipped run.
+      summary: Its summary.
+      seeds: Test seeds per tier, compared trial by trial (None: all, and the card).
+      threads, trust_code, trusted: As for `verify_run`.
+
+    Returns:
+      The differences from what it stores (empty: none).
+    """
+    config = runs.read_json(os.path.join(run_dir, "config.json"))
+    problems = []
+    for version, kept in admission.unvouched_history(summary):
+        card, trials = score_run(
+            run_dir, card_settings(config, seeds, threads, kept), trust_code, trusted
+        )
+        name = history_trials_file(version)
+        stored = read_trials(os.path.join(run_dir, name))
+        if seeds is not None:
+            wanted = {(t["tier"], t["seed"]) for t in trials}
+            stored = [t for t in stored if (t["tier"], t["seed"]) in wanted]
+        if trials != stored:
+            differ = sum(a != b for a, b in zip(trials, stored))
+            problems.append(f"{differ or 'the number of'} trials differ from {name}")
+        if seeds is None and _jsonable(score.stored_card(card)) != kept:
+            problems.append(f"the version-{version} card differs from summary.json's history")
     return problems
 
 
@@ -788,6 +859,10 @@ def write_ledger(
     environment = runs.environment_record()
     for run_dir, problems in outcomes.items():
         trials = len(read_trials(os.path.join(run_dir, "trials.csv")))
+        if not sample_trials:
+            trials = admission.full_check_trials(
+                runs.read_json(os.path.join(run_dir, "summary.json"))
+            )
         check = f"sample {sample_trials}" if sample_trials else "full"
         if upgrade is not None:
             check = f"upgrade {upgrade[0]}->{upgrade[1]}"
