@@ -27,11 +27,15 @@ def _cpu_flags() -> set[str]:
     return set()
 
 
-def variants(blas_kernels: tuple[str, ...] = ("Haswell",)) -> dict[str, dict[str, str]]:
+def variants(
+    blas_kernels: tuple[str, ...] = ("Haswell",), torch: bool = True
+) -> dict[str, dict[str, str]]:
     """Variant name → the environment variables that make it (native: none).
 
     Args:
       blas_kernels: OpenBLAS kernels to force (SkylakeX only where the CPU has AVX-512).
+      torch: Include torch's capabilities (`ATEN_CPU_CAPABILITY`: it changes nothing in a
+        process that never imports torch).
     """
     from numpy._core._multiarray_umath import __cpu_dispatch__
 
@@ -44,8 +48,9 @@ def variants(blas_kernels: tuple[str, ...] = ("Haswell",)) -> dict[str, dict[str
         out["NumPy without AVX2 and AVX-512"] = {
             "NPY_DISABLE_CPU_FEATURES": " ".join(["X86_V3", *avx512])
         }
-    out["torch at its default capability"] = {"ATEN_CPU_CAPABILITY": "default"}
-    out["torch at AVX2"] = {"ATEN_CPU_CAPABILITY": "avx2"}
+    if torch:
+        out["torch at its default capability"] = {"ATEN_CPU_CAPABILITY": "default"}
+        out["torch at AVX2"] = {"ATEN_CPU_CAPABILITY": "avx2"}
     for kernel in blas_kernels:
         if kernel != "SkylakeX" or "avx512f" in _cpu_flags():
             out[f"OpenBLAS {kernel}"] = {"OPENBLAS_CORETYPE": kernel}

@@ -143,3 +143,20 @@ def test_maintenance_calls_refuse_what_the_board_refuses(tmp_path, call):
 
 def _files(root) -> dict:
     return {str(p): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+
+
+def test_a_row_that_scored_fewer_cards_than_a_full_check_is_not_full(tmp_path):
+    """A run keeping a version-1 card: a full check now scores it too (450 trials); a row of
+    an earlier check that scored the test card's 250 only is no full re-score."""
+    source = os.path.join(
+        "results", "protocol", "runs", "cem", "darwin_walk", "K50_n0.8_e2_v1_seed0"
+    )
+    if not os.path.isdir(source):
+        pytest.skip("no shipped run")
+    run_dir = str(tmp_path / "cem" / "darwin_walk" / "K50_v1_seed0")
+    shutil.copytree(source, run_dir)
+    ledger = _ledger_row(tmp_path, run_dir)
+    row = admission.read_ledger(ledger)[admission.run_key(run_dir)]
+    assert row["trials"] == "450" and admission.rescored_in_full(run_dir, {row["run"]: row})
+    earlier = {**row, "trials": "250"}
+    assert admission.rescored_in_full(run_dir, {row["run"]: earlier}) is None

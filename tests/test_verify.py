@@ -132,6 +132,59 @@ def test_rescore_run_stores_the_trials_and_card_the_code_gives_now(shipped, tmp_
     verify.rescore_run(str(copy))
     assert verify.verify_run(str(copy)) == []
     assert (copy / "trials.csv").read_bytes() == open(f"{dest}/trials.csv", "rb").read()
+    before = {p.name: p.read_bytes() for p in copy.iterdir()}
+    verify.rescore_run(str(copy))  # its cards reproduce: it keeps its files, byte for byte
+    assert {p.name: p.read_bytes() for p in copy.iterdir()} == before
+
+
+V1_RUN = os.path.join(ROOT, verify.ARTIFACTS, "cem", "darwin_walk", "K50_n0.8_e2_v1_seed0")
+
+
+def _inflate_first_v1_trial(run):
+    """The version-1 card's first trial walks 1 m more, its history card made from the
+    table as a card makes it: the board's file checks cannot tell (version 1 scores other
+    physics than the test card), only scoring it again can."""
+    rows = admission.read_trials(str(run / "trials_v1.csv"))
+    with open(run / "trials_v1.csv", newline="") as f:
+        raw = list(csv.DictReader(f))
+    raw[0]["distance_m"] = repr(rows[0]["distance_m"] + 1.0)
+    runs.write_rows_csv(str(run / "trials_v1.csv"), raw)
+    rows = admission.read_trials(str(run / "trials_v1.csv"))
+    summary = json.loads((run / "summary.json").read_text())
+    kept = summary["history"]["v1"]
+    for tier in kept["tiers"]:
+        made = admission._card_row([t for t in rows if t["tier"] == tier], 1000)
+        kept["tiers"][tier].update(admission._jsonable(admission._without_quality(made)))
+    kept["all"].update(
+        admission._jsonable(admission._without_quality(admission._card_row(rows, 1000)))
+    )
+    (run / "summary.json").write_text(json.dumps(summary, indent=2))
+
+
+def test_verify_scores_a_version_1_history_card_again(tmp_path):
+    """The cards a run keeps as history: a version-2 card's table the board holds to the
+    test card's; a version-1 card (no supply limit) verify scores again, quick and full."""
+    summary = json.loads(open(os.path.join(V1_RUN, "summary.json")).read())
+    assert [v for v, _ in admission.unvouched_history(summary)] == [1]
+    assert admission.full_check_trials(summary) == 250 + 200
+    v2_only = json.loads(
+        open(
+            os.path.join(
+                ROOT, verify.ARTIFACTS, "cem", "darwin_walk", "K50_n0.8_e2_seed0", "summary.json"
+            )
+        ).read()
+    )
+    assert (
+        admission.unvouched_history(v2_only) == [] and admission.full_check_trials(v2_only) == 250
+    )
+    copy = tmp_path / "cem" / "darwin_walk" / "K50_v1_seed0"
+    shutil.copytree(V1_RUN, copy)
+    assert verify.history_problems(str(copy), summary, seeds=2, threads=1) == []
+    _inflate_first_v1_trial(copy)
+    assert admission.refusals([str(copy)]) == {}  # admitted on its files
+    assert verify.history_problems(
+        str(copy), json.loads((copy / "summary.json").read_text()), seeds=2, threads=1
+    ) == ["1 trials differ from trials_v1.csv"]
 
 
 def test_a_card_extends_an_older_one_only_by_new_keys():

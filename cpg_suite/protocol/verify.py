@@ -618,8 +618,8 @@ def rescore_run(
         )
         name = history_trials_file(version)
         fresh = _jsonable(score.stored_card(card))
-        if trials == read_trials(os.path.join(run_dir, name)) and fresh == kept:
-            continue
+        if trials == read_trials(os.path.join(run_dir, name)) and extends(fresh, kept):
+            continue  # as `history_problems` checks it: it reproduces
         write_trials(os.path.join(run_dir, name), trials)
         summary = runs.read_json(summary_path)
         history = {**summary["history"], f"v{version}": fresh}
@@ -702,7 +702,9 @@ def history_problems(
         if trials != stored:
             differ = sum(a != b for a, b in zip(trials, stored))
             problems.append(f"{differ or 'the number of'} trials differ from {name}")
-        if seeds is None and _jsonable(score.stored_card(card)) != kept:
+        # A history card is not updated when the card gains a measure (`update_cards`):
+        # every value it holds must be made again, equal.
+        if seeds is None and not extends(_jsonable(score.stored_card(card)), kept):
             problems.append(f"the version-{version} card differs from summary.json's history")
     return problems
 
