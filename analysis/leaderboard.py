@@ -571,8 +571,9 @@ def history_versions(found: list[dict]) -> list[int]:
     """The benchmark versions of the cards kept as history in `found`, ascending."""
     versions = set()
     for run in found:
-        for key in run["summary"].get("history") or {}:
-            versions.add(int(key.lstrip("v")))
+        cards = admission.cards_of(run["summary"]) if run["summary"] else {}
+        if not isinstance(cards, str):  # a run whose cards do not hold together: refused
+            versions.update(v for v in cards if v != max(cards))
     return sorted(versions)
 
 

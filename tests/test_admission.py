@@ -258,6 +258,34 @@ FORGERIES = {
         "its trial table does not produce the card (all: success_weighted_distance_m differs) "
         "(its version-2 card, trials_v2.csv)",
     ),
+    "history_key_with_newline": (  # "v2\n" read as v2 by a `$` pattern: the forged "v2" shown
+        lambda run: _edit_json(
+            run / "summary.json",
+            lambda s: s["history"].update(
+                {"v2\n": s["history"]["v2"], "v2": {**s["history"]["v2"], "edited": 1}}
+            ),
+        ),
+        "summary.json's history holds 'v2\\n', not a card under a version v<n>",
+    ),
+    "history_bogus_key": (  # and the board's list of history versions does not crash on it
+        lambda run: _edit_json(run / "summary.json", lambda s: s["history"].update(vbogus={})),
+        "summary.json's history holds 'vbogus', not a card under a version v<n>",
+    ),
+    "history_quality_edited": (  # a measure the table cannot make: the test card's tier has it
+        lambda run: _edit_json(
+            run / "summary.json",
+            lambda s: s["history"]["v2"]["tiers"]["darwin_walk"]["quality"].update(
+                cost_of_transport=0.01
+            ),
+        ),
+        "its version-2 card's darwin_walk row differs from its version-3 card's",
+    ),
+    "card_version_float": (
+        lambda run: _edit_json(
+            run / "summary.json", lambda s: s["test"].update(benchmark_version=3.0)
+        ),
+        "its test card claims benchmark version 3.0, not one of [1, 2, 3]",
+    ),
     "history_not_a_card": (
         lambda run: _edit_json(run / "summary.json", lambda s: s["history"].update(v2=5)),
         "summary.json's history holds 'v2', not a card under a version v<n>",
@@ -278,6 +306,24 @@ FORGERIES = {
     "budget_understated": (
         lambda run: _edit_json(run / "summary.json", lambda s: s.update(evaluations=1000)),
         "summary.json claims 1000 training trials, fewer than its config's 50 × 50 rounds × 1",
+    ),
+    "budget_population_float": (
+        lambda run: _edit_json(
+            run / "config.json", lambda c: c["settings"].update(population=50.0)
+        ),
+        "config.json's budget {'population': 50.0, 'rounds': 50, 'eval_seeds': 1} is not three",
+    ),
+    "budget_no_seeds": (
+        lambda run: _edit_json(run / "config.json", lambda c: c["settings"].update(eval_seeds=0)),
+        "config.json's budget {'population': 50, 'rounds': 50, 'eval_seeds': 0} is not three",
+    ),
+    "budget_left_out": (
+        lambda run: _edit_json(run / "summary.json", lambda s: s.pop("evaluations")),
+        "summary.json does not say how many training trials it took (evaluations)",
+    ),
+    "task_left_out": (
+        lambda run: _edit_json(run / "config.json", lambda c: c["settings"].pop("task")),
+        "config.json says it trained on None, its folder on 'darwin_walk'",
     ),
     "budget_negative": (
         lambda run: _edit_json(run / "summary.json", lambda s: s.update(evaluations=-1)),
@@ -309,6 +355,18 @@ FORGERIES = {
             run, "summary.json", '{"test": {}, ' + (run / "summary.json").read_text()[1:]
         ),
         "unreadable run files (ValueError: summary.json: the key 'test' appears twice",
+    ),
+    "gait_key_twice": (
+        lambda run: _raw(
+            run,
+            "selected_params.json",
+            '{"amplitudes": {}, ' + (run / "selected_params.json").read_text().lstrip()[1:],
+        ),
+        "unreadable run files (ValueError: selected_params.json: the key 'amplitudes' appears",
+    ),
+    "policy_unpacks_huge": (  # 128 MiB of zeros in a 130 kB .npz, beside the gait it outranks
+        lambda run: np.savez_compressed(run / "selected_policy.npz", w=np.zeros(2**24)),
+        "unreadable gait or policy (ValueError: selected_policy.npz unpacks to",
     ),
     "trials_column_twice": (
         lambda run: _raw(

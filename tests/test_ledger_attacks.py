@@ -160,3 +160,23 @@ def test_a_row_that_scored_fewer_cards_than_a_full_check_is_not_full(tmp_path):
     assert row["trials"] == "450" and admission.rescored_in_full(run_dir, {row["run"]: row})
     earlier = {**row, "trials": "250"}
     assert admission.rescored_in_full(run_dir, {row["run"]: earlier}) is None
+
+
+def test_a_short_or_symlinked_ledger_row_is_no_record(tmp_path):
+    """A row cut short (its check and result missing) is no re-score and breaks nothing; a
+    ledger that is a symbolic link is not read as the board's record."""
+    run_dir = _copy(tmp_path)
+    ledger = tmp_path / "rescored.csv"
+    ledger.write_text(
+        ",".join(admission.LEDGER_FIELDS) + "\n" + f"{admission.run_key(run_dir)},"
+        f"{admission.run_digest(run_dir)}\n"
+    )
+    rows = admission.read_ledger(str(ledger))
+    assert rows[admission.run_key(run_dir)]["check"] == ""
+    assert admission.rescored_in_full(run_dir, rows) is None
+    assert admission.refusals([run_dir]) == {}
+    real = tmp_path / "elsewhere.csv"
+    ledger.rename(real)
+    ledger.symlink_to(real)
+    with pytest.raises(ValueError, match="symbolic link"):
+        admission.read_ledger(str(ledger))

@@ -248,15 +248,14 @@ def actions_refusal(path: str, steps: int) -> str | None:
 
 
 def card_under(summary: dict, version: int | None) -> dict | None:
-    """A run's card under a benchmark version: its test card if scored under it, else the
-    one kept as history (`verify.upgrade_run`); None: none. `version` None: its test card."""
+    """A run's card under a benchmark version, as `cards_of` reads its cards: its test card
+    if scored under it, else the one kept as history (`verify.upgrade_run`); None: none, or
+    cards that do not hold together. `version` None: its test card."""
     test = summary.get("test")
     if not isinstance(test, dict) or version is None:
         return test if isinstance(test, dict) else None
-    if test.get("benchmark_version", 1) == version:
-        return test
-    kept = (summary.get("history") or {}).get(f"v{version}")
-    return kept if isinstance(kept, dict) else None
+    cards = cards_of(summary)
+    return None if isinstance(cards, str) else cards.get(version)
 
 
 def _read_json(path: str) -> dict:
@@ -337,7 +336,13 @@ def run_refusal(run_dir: str, version: int | None = None, name: str | None = Non
         return f"unreadable run files ({type(e).__name__}: {e})"
 
 
-HISTORY_KEY = re.compile(r"^v(?P<version>[1-9]\d*)$")
+HISTORY_KEY = re.compile(r"v(?P<version>[1-9][0-9]*)")  # whole key (`fullmatch`): v<n>
+
+
+def _version_number(value) -> bool:
+    """Whether a card's or config's `benchmark_version` is one of `protocol.VERSIONS` as an
+    integer (not 3.0, True or "3")."""
+    return type(value) is int and value in protocol.VERSIONS
 
 
 def cards_of(summary: dict) -> dict[int, dict] | str:
@@ -354,7 +359,7 @@ def cards_of(summary: dict) -> dict[int, dict] | str:
     if not isinstance(test, dict):
         return "summary.json holds no test card"
     current = test.get("benchmark_version", 1)
-    if current not in protocol.VERSIONS or isinstance(current, bool):
+    if not _version_number(current):
         known = sorted(protocol.VERSIONS)
         return f"its test card claims benchmark version {current!r}, not one of {known}"
     history = summary.get("history") or {}
@@ -362,12 +367,12 @@ def cards_of(summary: dict) -> dict[int, dict] | str:
         return "summary.json's history is not an object of cards"
     cards = {current: test}
     for key, card in history.items():
-        match = HISTORY_KEY.match(key)
+        match = HISTORY_KEY.fullmatch(key) if isinstance(key, str) else None
         if not match or not isinstance(card, dict):
             return f"summary.json's history holds {key!r}, not a card under a version v<n>"
         kept = int(match["version"])
         claimed = card.get("benchmark_version", 1)
-        if claimed != kept:
+        if claimed != kept or not _version_number(claimed):
             return f"its history card {key} says it was scored under version {claimed!r}"
         if kept >= current:
             return (
@@ -395,7 +400,7 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
     ):
         return "config.json has no test_seeds or trial_steps (the card's settings)"
     trained = settings.get("benchmark_version", 1)
-    if trained not in protocol.VERSIONS:
+    if not _version_number(trained):
         known = sorted(protocol.VERSIONS)
         return f"config.json claims benchmark version {trained!r}, not one of {known}"
     if min(cards) != trained:
@@ -412,6 +417,8 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
         reason = actions_refusal(os.path.join(run_dir, ACTIONS), steps)
         if reason:
             return reason
+    if artifact_files(run_dir) == (GAIT,):
+        files.read_json(os.path.join(run_dir, GAIT))  # strict, as every run file
     # The board's card first (its reason is the one a reader of that board needs), then
     # every other card the run holds: the board ranks one, the others rank elsewhere.
     order = sorted(cards, key=lambda v: (v != version, -v))
@@ -422,8 +429,8 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
         )
         if reason:
             return reason
-    for kept in cards:
-        reason = _alike_refusal(tables[kept], tables[current], kept, current)
+    for kept in (v for v in cards if v != current):
+        reason = _alike_refusal(cards, tables, kept, current)
         if reason:
             return reason
     match = SEED_NAME.match(name)
@@ -465,26 +472,38 @@ def _card_refusal(
     return reason, trials
 
 
-def _alike_refusal(kept: list[dict], latest: list[dict], old: int, new: int) -> str | None:
+def _alike_refusal(cards: dict, tables: dict, old: int, new: int) -> str | None:
     """Why a card kept as history and the test card disagree on a tier both score alike
-    (`protocol.scored_alike`: a re-score keeps those trials), None: they agree."""
-    alike = protocol.scored_alike(old, new)
-    for tier in alike:
-        mine = [t for t in kept if t["tier"] == tier]
-        now = [t for t in latest if t["tier"] == tier]
+    (`protocol.scored_alike`: a re-score keeps those trials and their measures), None: they
+    agree: the same trials, and every value of the history card's tier row (the gait-quality
+    medians included) the test card's (which may hold measures added since)."""
+    for tier in protocol.scored_alike(old, new):
+        mine = [t for t in tables[old] if t["tier"] == tier]
+        now = [t for t in tables[new] if t["tier"] == tier]
         if mine != now:
             return (
                 f"its version-{old} trials differ from its version-{new} trials on {tier}, "
                 f"which both versions score alike (trials_v{old}.csv, trials.csv)"
             )
+        if not card_stats.extends(cards[new]["tiers"][tier], cards[old]["tiers"][tier]):
+            return (
+                f"its version-{old} card's {tier} row differs from its version-{new} card's, "
+                "which both versions score alike"
+            )
     return None
 
 
+def _count(value) -> bool:
+    return type(value) is int and value >= 0
+
+
 def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
-    """Why what a run says of its training does not hold together (None: it does): the
-    task in its config is its folder's, its budget is a count, no less than its config
-    gave it (population × rounds × seeds a trial; a learner's `total_steps`). The training
-    itself is the submitter's word: only a re-run shows it (docs/protocol.md#admission).
+    """Why what a run says of its training does not hold together (None: it does): its
+    config names the task of its folder; its budget is a count (`evaluations` for a run
+    whose config sets a population and rounds, `env_steps` for a learner's `total_steps`),
+    no less than its config gave it (population × rounds × `eval_seeds`, 1 if unset; the
+    learner's `total_steps`). The training itself is the submitter's word: only a re-run
+    shows it (docs/protocol.md#admission).
 
     Args:
       run_dir: The run folder `<method>/<task>/<run_name>`.
@@ -492,27 +511,34 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
       summary: Its summary.
     """
     task = os.path.basename(os.path.dirname(os.path.normpath(os.path.abspath(run_dir))))
-    if "task" in settings and settings["task"] != task:
-        return f"config.json says it trained on {settings['task']!r}, its folder on {task!r}"
+    if settings.get("task") != task:
+        return f"config.json says it trained on {settings.get('task')!r}, its folder on {task!r}"
     for key in ("evaluations", "env_steps", "sim_steps"):
-        value = summary.get(key)
-        counts = isinstance(value, int) and not isinstance(value, bool) and value >= 0
-        if key in summary and not counts:
-            return f"summary.json's {key} is {value!r}, not a count"
-    given = [settings.get(k) for k in ("population", "rounds")]
-    if "evaluations" in summary and all(isinstance(g, int) for g in given):
-        seeds = settings.get("eval_seeds", 1)
-        if summary["evaluations"] < given[0] * given[1] * seeds:
+        if key in summary and not _count(summary[key]):
+            return f"summary.json's {key} is {summary[key]!r}, not a count"
+    given = {k: settings[k] for k in ("population", "rounds", "eval_seeds") if k in settings}
+    if "population" in given or "rounds" in given:
+        given.setdefault("eval_seeds", 1)
+        if not all(_count(g) and g > 0 for g in given.values()) or len(given) != 3:
+            return f"config.json's budget {given} is not three positive counts"
+        if "evaluations" not in summary:
+            return "summary.json does not say how many training trials it took (evaluations)"
+        least = given["population"] * given["rounds"] * given["eval_seeds"]
+        if summary["evaluations"] < least:
             return (
                 f"summary.json claims {summary['evaluations']} training trials, fewer than "
-                f"its config's {given[0]} × {given[1]} rounds × {seeds} seeds"
+                f"its config's {given['population']} × {given['rounds']} rounds × "
+                f"{given['eval_seeds']} seeds"
             )
-    total = settings.get("total_steps")
-    if isinstance(total, int) and "env_steps" in summary and summary["env_steps"] < total:
-        return (
-            f"summary.json claims {summary['env_steps']} training steps, fewer than its "
-            f"config's total_steps {total}"
-        )
+    if "total_steps" in settings:
+        total = settings["total_steps"]
+        if not _count(total) or total == 0:
+            return f"config.json's total_steps is {total!r}, not a positive count"
+        if summary.get("env_steps", -1) < total:
+            return (
+                f"summary.json claims {summary.get('env_steps')} training steps, fewer than "
+                f"its config's total_steps {total}"
+            )
     return None
 
 
@@ -585,11 +611,19 @@ def run_key(run_dir: str) -> str:
 
 
 def read_ledger(path: str) -> dict[str, dict]:
-    """A ledger's rows by run (`LEDGER_FIELDS`); {} if there is none."""
-    if not os.path.isfile(path):
+    """A ledger's rows by run (`LEDGER_FIELDS`, each a string: "" where a row is short); {}
+    if there is none.
+
+    Raises:
+      OSError: If it cannot be read.
+      ValueError: If the board may not read it (`files.refusal`).
+    """
+    if not os.path.lexists(path):
         return {}
-    with open(path, newline="", encoding="utf-8") as f:
-        return {row["run"]: row for row in csv.DictReader(f)}
+    rows = csv.DictReader(io.StringIO(files.read_text(path), newline=""))
+    return {
+        row["run"]: {k: row.get(k) or "" for k in LEDGER_FIELDS} for row in rows if row.get("run")
+    }
 
 
 def rescored_in_full(run_dir: str, ledger: dict[str, dict]) -> str | None:

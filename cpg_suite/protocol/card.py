@@ -218,3 +218,17 @@ def implied_steps(card: dict) -> int:
 def is_protocol(card: dict) -> bool:
     """Whether a card was made under the protocol's card settings (`card_deviations`)."""
     return not card_deviations(card)
+
+
+def extends(fresh, stored) -> bool:
+    """Whether a fresh card (or part of one) holds every value of a stored one, equal: it
+    may add keys (a measure the card gained since), never change one.
+
+    Args:
+      fresh, stored: Cards, their rows, or values.
+    """
+    if isinstance(stored, dict):
+        return isinstance(fresh, dict) and all(
+            k in fresh and extends(fresh[k], v) for k, v in stored.items()
+        )
+    return fresh == stored

@@ -106,6 +106,7 @@ def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple 
     if name.endswith(".json"):
         return (*_arrays({"params": feedback.load_params(path)}), None)
     if name.endswith(".npz"):
+        _require_bounded_zip(path)  # each array unpacks to at most a run file's size
         with np.load(path, allow_pickle=False) as data:
             return (*_arrays({k: data[k] for k in data.files}), None)
     if name.endswith(".npy"):
@@ -118,15 +119,26 @@ def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple 
     for file_name in files:  # an SB3 model (zip) and its normalizer (pickle)
         file_path = os.path.join(run_dir, file_name)
         if zipfile.is_zipfile(file_path):
+            _require_bounded_zip(file_path)
             with zipfile.ZipFile(file_path) as z:
                 for member in sorted(z.namelist()):
-                    if z.getinfo(member).file_size > run_files.MAX_BYTES:  # no zip bomb
-                        raise ValueError(f"{file_name}'s {member} unpacks to over the limit")
                     parts += [member.encode(), z.read(member)]
         else:
             with open(file_path, "rb") as f:
                 parts.append(f.read())
     return ("bytes",), None, _sha256(*parts)
+
+
+def _require_bounded_zip(path: str) -> None:
+    """Raises ValueError if a zip (an `.npz`, an SB3 model) would unpack to more than
+    `files.MAX_BYTES` in all: no member is read before this holds."""
+    with zipfile.ZipFile(path) as z:
+        total = sum(info.file_size for info in z.infolist())
+    if total > run_files.MAX_BYTES:
+        raise ValueError(
+            f"{os.path.basename(path)} unpacks to {total} bytes, over the {run_files.MAX_BYTES}"
+            " a run file may hold"
+        )
 
 
 def fingerprint(run_dir: str, files: tuple[str, ...], trials: list[dict]) -> Fingerprint:

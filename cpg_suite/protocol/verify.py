@@ -79,6 +79,7 @@ from absl import flags
 
 from cpg_suite import cli, cpg, feedback, progress, protocol
 from cpg_suite.protocol import admission, audit, sample, sandbox, score
+from cpg_suite.protocol import card as card_stats
 from cpg_suite.runfiles import exported, runs
 
 ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
@@ -397,13 +398,7 @@ def _relocated(config: dict) -> dict:
     return {**config, "command": " ".join(words)}
 
 
-def extends(fresh, stored) -> bool:
-    """Whether a fresh card holds every value of a stored one, equal (it may add keys)."""
-    if isinstance(stored, dict):
-        return isinstance(fresh, dict) and all(
-            k in fresh and extends(fresh[k], v) for k, v in stored.items()
-        )
-    return fresh == stored
+extends = card_stats.extends  # a fresh card holds every value of a stored one
 
 
 def ship(run_dir: str, dest: str, threads: int = 2, trust_code: bool = False) -> str:
@@ -530,15 +525,21 @@ def fresh_card(
     trust_code: bool = False,
     trusted: frozenset[str] | None = None,
 ) -> dict:
-    """A shipped run scored again, its card made anew, if its trials are unchanged.
+    """A shipped run scored again, its card made anew, if its trials are unchanged and the
+    cards it keeps as history reproduce (as `verify_run` checks them: a full check).
 
     Raises:
-      ValueError: If a trial differs from `trials.csv`.
+      ValueError: If a trial differs from `trials.csv`, or a history card differs.
       UntrustedCode: If its policy is code not trusted (nothing is loaded).
     """
-    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code, trusted=trusted)
-    if trials != read_trials(os.path.join(run_dir, "trials.csv")):
-        raise ValueError(f"{run_dir}: its trials changed; ship the run again instead")
+    summary = runs.read_json(os.path.join(run_dir, "summary.json"))
+    how = (threads, trust_code, trusted)
+    (card, trials), alike = score_with_history(run_dir, summary, None, *how)
+    problems = _compare(run_dir, summary, trials, None, alike, quick=False)
+    problems += history_problems(run_dir, summary, None, *how)
+    if problems:
+        what = "; ".join(problems)
+        raise ValueError(f"{run_dir}: its trials changed ({what}); ship the run again instead")
     return card
 
 
@@ -611,6 +612,29 @@ def rescore_run(
     ):
         write_trials(os.path.join(run_dir, "trials.csv"), trials)
         _store_card(run_dir, card)
+    rescore_history(run_dir, threads, trust_code, trusted)
+
+
+def rescore_history(
+    run_dir: str,
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+) -> None:
+    """`rescore_run` for the cards a run keeps as history that its test trials do not vouch
+    for (`admission.unvouched_history`) only: each that no longer reproduces is stored.
+
+    Args:
+      run_dir: A shipped run.
+      threads: Evaluator threads.
+      trust_code: Whether a policy that is code may run (`code_refusal`).
+      trusted: The trusted pickles' digests (None: the package's list).
+
+    Raises:
+      OSError, KeyError, ValueError: On a run without a readable config or policy.
+      UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
+    """
+    summary_path = os.path.join(run_dir, "summary.json")
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     for version, kept in admission.unvouched_history(runs.read_json(summary_path)):
         card, trials = score_run(
@@ -648,21 +672,73 @@ def verify_run(
     Raises:
       UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
     """
-    stored_trials = read_trials(os.path.join(run_dir, "trials.csv"))
-    stored_seeds = len({t["seed"] for t in stored_trials})
+    stored_seeds = len({t["seed"] for t in read_trials(os.path.join(run_dir, "trials.csv"))})
     seeds = min(QUICK_SEEDS, stored_seeds) if quick else None
-    card, trials = rescore(run_dir, seeds, threads, trust_code, trusted)
-    if quick:
-        wanted = {(t["tier"], t["seed"]) for t in trials}
-        stored_trials = [t for t in stored_trials if (t["tier"], t["seed"]) in wanted]
-    problems = []
-    if trials != stored_trials:
-        differ = sum(a != b for a, b in zip(trials, stored_trials))
-        problems.append(f"{differ or 'the number of'} trials differ from trials.csv")
     summary = runs.read_json(os.path.join(run_dir, "summary.json"))
-    if not quick and _jsonable(score.stored_card(card)) != summary["test"]:
-        problems.append("the score card differs from summary.json")
-    return problems + history_problems(run_dir, summary, seeds, threads, trust_code, trusted)
+    how = (threads, trust_code, trusted)
+    (card, trials), alike = score_with_history(run_dir, summary, seeds, *how)
+    problems = _compare(run_dir, summary, trials, card, alike, quick)
+    return problems + history_problems(run_dir, summary, seeds, *how)
+
+
+def score_with_history(
+    run_dir: str,
+    summary: dict,
+    seeds: int | None = None,
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+) -> tuple[tuple[dict, list[dict]], list[tuple[int, dict, list[dict]]]]:
+    """A run's test card scored again, and in the same pass each card it keeps as history
+    whose tiers the test card's version scores alike (`score.cards_and_trials`: each tier
+    once; the gait-quality medians of the history card's `all` row need its own tiers).
+
+    Args:
+      run_dir: A shipped run.
+      summary: Its summary.
+      seeds: Test seeds per tier (None: the run's own).
+      threads, trust_code, trusted: As for `verify_run`.
+
+    Returns:
+      `((card, trials), [(version, card, trials), ...])`.
+    """
+    config = runs.read_json(os.path.join(run_dir, "config.json"))
+    test = card_settings(config, seeds, threads, summary["test"])
+    unvouched = {version for version, _ in admission.unvouched_history(summary)}
+    alike = [
+        (version, card_settings(config, seeds, threads, kept))
+        for version, kept in sorted(admission.cards_of(summary).items())
+        if version != test.benchmark_version and version not in unvouched
+    ]
+    scored = _score_run_under(run_dir, [s for _, s in alike] + [test], trust_code, trusted)
+    history = [(version, *made) for (version, _), made in zip(alike, scored)]
+    return scored[-1], history
+
+
+def _compare(
+    run_dir: str, summary: dict, trials: list[dict], card: dict | None, alike: list, quick: bool
+) -> list[str]:
+    """What differs between what `score_with_history` made and what the run stores (a card:
+    only where `card` is given and not `quick`)."""
+    problems = []
+    scored = [(None, summary["test"], card, trials)]
+    scored += [(v, summary["history"][f"v{v}"], c, t) for v, c, t in alike]
+    for version, stored_card, fresh_card, fresh in scored:
+        name = "trials.csv" if version is None else history_trials_file(version)
+        stored = read_trials(os.path.join(run_dir, name))
+        wanted = {(t["tier"], t["seed"]) for t in fresh}
+        stored = [t for t in stored if (t["tier"], t["seed"]) in wanted] if quick else stored
+        if fresh != stored:
+            differ = sum(a != b for a, b in zip(fresh, stored))
+            problems.append(f"{differ or 'the number of'} trials differ from {name}")
+        if quick or fresh_card is None:
+            continue
+        made = _jsonable(score.stored_card(fresh_card))
+        if version is None and made != stored_card:
+            problems.append("the score card differs from summary.json")
+        elif version is not None and not extends(made, stored_card):
+            problems.append(f"the version-{version} card differs from summary.json's history")
+    return problems
 
 
 def history_problems(
@@ -1004,7 +1080,7 @@ def verify(
 
     Args:
       artifacts: The folder of shipped runs.
-      quick: The first `QUICK_SEEDS` test seeds of every tier (20 of a card's 200 trials)
+      quick: The first `QUICK_SEEDS` test seeds of every tier (25 of a card's 250 trials)
         of the first run of each configuration only, compared trial by trial: a check of
         the code on this machine, not of the runs (`_quick_sample`).
       threads: Evaluator threads of each run.
