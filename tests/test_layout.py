@@ -27,6 +27,7 @@ ANALYSIS_MAY_IMPORT = (
     "cpg_suite.protocol.stats",
     "cpg_suite.protocol.aggregate",
     "cpg_suite.protocol.admission",
+    "cpg_suite.protocol.files",  # a run's files read strictly: JSON and CSV, no simulation
 )
 # The protocol package itself (not its submodules): its seeds, tiers and versions, data
 # that the board reads by name (one definition of the tiers; admission imports it too).
