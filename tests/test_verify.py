@@ -1,5 +1,6 @@
 """Shipped artifacts: a run ships with its trials, and `verify` reproduces (or flags) it."""
 
+import concurrent.futures
 import csv
 import json
 import os
@@ -257,3 +258,60 @@ def test_cli_rescore_of_a_missing_folder_is_one_line(tmp_path):
     )
     assert out.returncode == 2
     assert out.stderr.splitlines() == [f"error: --rescore=ppo_mjx is not a folder of {tmp_path}"]
+
+
+def test_verify_in_processes_records_each_run_as_it_is_done(tmp_path):
+    """`--jobs=2 --record`: every run's row is written when its process finishes it (a stop
+    keeps what was checked), and the log still lists the runs in path order."""
+    tree = tmp_path / "protocol" / "runs" / "cem" / "darwin_walk"
+    for seed in (0, 1):
+        source = os.path.join(
+            ROOT, verify.ARTIFACTS, "cem", "darwin_walk", f"K50_n0.8_e2_seed{seed}"
+        )
+        shutil.copytree(source, tree / f"K50_n0.8_e2_seed{seed}")
+    ledger = str(tmp_path / "protocol" / admission.LEDGER)
+    logged = []
+    failed = verify.verify(
+        str(tmp_path / "protocol" / "runs"), log=logged.append, jobs=2, threads=1,
+        sample_trials=1, entropy=7, record=ledger,
+    )  # fmt: skip
+    assert failed == 0
+    assert [line.split("/")[-1] for line in logged[1:3]] == [
+        "K50_n0.8_e2_seed0",
+        "K50_n0.8_e2_seed1",
+    ]
+    rows = admission.read_ledger(ledger)
+    assert sorted(rows) == [f"cem/darwin_walk/K50_n0.8_e2_seed{s}" for s in (0, 1)]
+    assert {(r["check"], r["result"]) for r in rows.values()} == {("sample 1", "reproduced")}
+
+
+def test_a_run_done_early_is_recorded_before_an_earlier_one_in_path_order(tmp_path):
+    """The first run in path order still running, the second done: its row is written now,
+    not when the first ends (a stop then keeps it)."""
+    import threading
+    import time
+
+    tree = tmp_path / "protocol" / "runs" / "cem" / "darwin_walk"
+    dirs = []
+    for seed in (0, 1):
+        source = os.path.join(
+            ROOT, verify.ARTIFACTS, "cem", "darwin_walk", f"K50_n0.8_e2_seed{seed}"
+        )
+        dirs.append(str(shutil.copytree(source, tree / f"K50_n0.8_e2_seed{seed}")))
+    ledger = str(tmp_path / "protocol" / admission.LEDGER)
+    release = threading.Event()
+    with concurrent.futures.ThreadPoolExecutor(2) as pool:
+        futures = {
+            dirs[0]: pool.submit(lambda: release.wait(60) and []),
+            dirs[1]: pool.submit(list),
+        }
+        writer = threading.Thread(target=verify._record_as_done, args=(ledger, futures, 0))
+        writer.start()
+        for _ in range(200):
+            if os.path.exists(ledger):
+                break
+            time.sleep(0.05)
+        assert sorted(admission.read_ledger(ledger)) == ["cem/darwin_walk/K50_n0.8_e2_seed1"]
+        release.set()
+        writer.join(60)
+    assert len(admission.read_ledger(ledger)) == 2

@@ -1142,6 +1142,8 @@ def verify(
                 run_dir: pool.submit(_check_run, run_dir, how)
                 for run_dir in sorted(chosen, key=_expected_cost, reverse=True)
             }
+            if record:  # as each run is done, whatever its place: a stop keeps what it checked
+                _record_as_done(record, futures, sample_trials)
             outcome = lambda run_dir: futures[run_dir].result()  # noqa: E731
         else:
             outcome = lambda run_dir: _check_run(run_dir, how)  # noqa: E731
@@ -1150,7 +1152,7 @@ def verify(
                 log(f"REFUSED {run_dir}; {refused[run_dir]}")
                 continue
             problems = outcome(run_dir)
-            if record:  # as each run is done: a run stopped midway keeps what it checked
+            if record and jobs <= 1:  # as each run is done: a stop keeps what it checked
                 write_ledger(record, {run_dir: problems}, sample_trials)
             failed += bool(problems)
             log(f"{'DIFF' if problems else 'ok  '} {run_dir}" + "".join(f"; {p}" for p in problems))
@@ -1158,6 +1160,16 @@ def verify(
     what = f", {sample_trials} random trials each," if sample_trials else ""
     log(f"{total - failed} of {total} shipped runs{what} reproduced bit for bit")
     return failed
+
+
+def _record_as_done(record: str, futures: dict, sample_trials: int) -> None:
+    """Writes each run's ledger row as its process finishes it (`verify` logs the runs in
+    path order afterwards), each with a progress line."""
+    run_of = {future: run_dir for run_dir, future in futures.items()}
+    for done, future in enumerate(concurrent.futures.as_completed(run_of), 1):
+        if future.exception() is None:
+            write_ledger(record, {run_of[future]: future.result()}, sample_trials)
+            progress.write(f"recorded {done} of {len(run_of)}: {run_of[future]}")
 
 
 def define_flags() -> None:
