@@ -409,9 +409,6 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
             f"version {', '.join(map(str, sorted(cards)))}: its first card is made under "
             "the version it trained under"
         )
-    reason = training_refusal(run_dir, settings, summary)
-    if reason:
-        return reason
     steps = settings["trial_steps"]
     if artifact_files(run_dir) == (ACTIONS,):
         reason = actions_refusal(os.path.join(run_dir, ACTIONS), steps)
@@ -433,6 +430,9 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
         reason = _alike_refusal(cards, tables, kept, current)
         if reason:
             return reason
+    reason = training_refusal(run_dir, settings, summary)
+    if reason:
+        return reason
     match = SEED_NAME.match(name)
     if match and "seed" in settings and settings["seed"] != int(match["seed"]):
         return f"config.json's seed {settings['seed']} is not the seed of its folder's name"
