@@ -588,31 +588,50 @@ def rescore_run(
 ) -> None:
     """Re-scores a shipped run and stores its cards and trials, whatever they were.
 
-    For a change to the code that runs a shipped policy, not to the policy: its test card
-    and the cards it keeps as history that the test trials do not vouch for
-    (`admission.unvouched_history`) are made again; each that changed is stored with its
-    trials, and
-    the versions it was scored with. A run whose cards all reproduce keeps its files, byte
-    for byte (and its ledger row).
+    For a change to the code that runs a shipped policy, not to the policy: its test card,
+    with the cards it keeps as history that the test card's version scores alike
+    (`score_with_history`), and those it keeps of other physics (`rescore_history`) are
+    made again; each that changed is stored with its trials and the versions it was scored
+    with. A run whose cards all reproduce keeps its files, byte for byte (and its ledger
+    row).
 
     Args:
       run_dir: A shipped run.
       threads: Evaluator threads.
       trust_code: Whether a policy that is code may run (`code_refusal`).
+      trusted: The trusted pickles' digests (None: the package's list).
 
     Raises:
       OSError, KeyError, ValueError: On a run without a readable config or policy.
       UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
-    card, trials = rescore(run_dir, threads=threads, trust_code=trust_code, trusted=trusted)
-    summary_path = os.path.join(run_dir, "summary.json")
-    summary = runs.read_json(summary_path)
+    summary = runs.read_json(os.path.join(run_dir, "summary.json"))
+    (card, trials), alike = score_with_history(run_dir, summary, None, threads, trust_code, trusted)
     if trials != read_trials(os.path.join(run_dir, "trials.csv")) or summary["test"] != (
         _jsonable(score.stored_card(card))
     ):
         write_trials(os.path.join(run_dir, "trials.csv"), trials)
         _store_card(run_dir, card)
+    for version, kept_card, kept_trials in alike:
+        _store_history_if_changed(run_dir, version, kept_card, kept_trials)
     rescore_history(run_dir, threads, trust_code, trusted)
+
+
+def _store_history_if_changed(run_dir: str, version: int, card: dict, trials: list[dict]) -> None:
+    """Stores a history card and its trials made again, unless they reproduce what the run
+    keeps (every value of the kept card made again, equal: `extends`)."""
+    summary_path = os.path.join(run_dir, "summary.json")
+    summary = runs.read_json(summary_path)
+    name = history_trials_file(version)
+    fresh = _jsonable(score.stored_card(card))
+    if trials == read_trials(os.path.join(run_dir, name)) and extends(
+        fresh, summary["history"][f"v{version}"]
+    ):
+        return
+    write_trials(os.path.join(run_dir, name), trials)
+    history = {**summary["history"], f"v{version}": fresh}
+    runs.write_json(summary_path, {**summary, "history": history})
+    _record_scoring(run_dir)
 
 
 def rescore_history(
@@ -634,21 +653,13 @@ def rescore_history(
       OSError, KeyError, ValueError: On a run without a readable config or policy.
       UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
-    summary_path = os.path.join(run_dir, "summary.json")
+    summary = runs.read_json(os.path.join(run_dir, "summary.json"))
     config = runs.read_json(os.path.join(run_dir, "config.json"))
-    for version, kept in admission.unvouched_history(runs.read_json(summary_path)):
+    for version, kept in admission.unvouched_history(summary):
         card, trials = score_run(
             run_dir, card_settings(config, None, threads, kept), trust_code, trusted
         )
-        name = history_trials_file(version)
-        fresh = _jsonable(score.stored_card(card))
-        if trials == read_trials(os.path.join(run_dir, name)) and extends(fresh, kept):
-            continue  # as `history_problems` checks it: it reproduces
-        write_trials(os.path.join(run_dir, name), trials)
-        summary = runs.read_json(summary_path)
-        history = {**summary["history"], f"v{version}": fresh}
-        runs.write_json(summary_path, {**summary, "history": history})
-        _record_scoring(run_dir)
+        _store_history_if_changed(run_dir, version, card, trials)
 
 
 def verify_run(
