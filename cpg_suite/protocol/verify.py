@@ -1,7 +1,7 @@
 r"""Shipped leaderboard artifacts: make them from run directories, and re-score them.
 
   python -m cpg_suite.protocol.verify                      # every shipped run, bit for bit
-  python -m cpg_suite.protocol.verify --quick              # the code's check, within a minute
+  python -m cpg_suite.protocol.verify --quick              # the code's check, about 3 minutes
   python -m cpg_suite.protocol.verify --sample=20          # 20 trials a run, drawn afresh (CI)
   python -m cpg_suite.protocol.verify --audit=10           # every run on 10 fresh seeds a tier
   python -m cpg_suite.protocol.verify --record=results/protocol/rescored.csv  # the ledger
