@@ -276,10 +276,7 @@ def test_an_exported_policy_run_ships_and_verifies(tmp_path):
     card, _ = score.score_policy_trials(
         policy, score.ScoreSettings(tiers=("darwin_walk",), seeds=2, steps=10)
     )
-    runs.write_json(
-        str(run_dir / "summary.json"),
-        {"test": {k: card[k] for k in ("tiers", "all", "scoring_sim_steps")}},
-    )
+    runs.write_json(str(run_dir / "summary.json"), {"test": score.stored_card(card)})
     shipped = tmp_path / "shipped"
     assert verify.ship_all(str(tmp_path / "runs"), str(shipped), log=lambda line: None) == 1
     dest = shipped / "ppo_mjx" / "darwin_walk" / "joints_seed0"
