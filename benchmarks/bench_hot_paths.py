@@ -1,7 +1,7 @@
 r"""Every hot path's ratio to a raw `mujoco.rollout` of the same physics, in one run.
 
   python benchmarks/bench_hot_paths.py [--clock=cpu] [--repeats=3] [--steps=1000]
-      [--paths=env,vector,evaluator,score] [--threads=1]
+      [--paths=env,vector,evaluator,feedback,score] [--threads=1]
 
 For each path, in one process, ours and the raw rollout timed back to back (best of
 `--repeats` each), as physics steps per second:
@@ -16,6 +16,10 @@ For each path, in one process, ours and the raw rollout timed back to back (best
   * the batched open-loop evaluator (`cpg_suite.evaluation.open_loop.BatchEvaluator`,
     `--threads`), 8 candidates around the hand-tuned gait (some fall, as in a CEM round:
     the evaluator stops them, the rollout does not, so steps per second are compared);
+  * the batched closed-loop evaluator (`cpg_suite.evaluation.closed_loop.FeedbackEvaluator`,
+    `--threads`), a round of the feedback runs (50 candidates with small feedback gains ×
+    2 starts on `darwin_walk_randomized`, a quarter of `--steps`), against a rollout of the
+    controls it set, from the same states on the same models;
   * scoring (`cpg_suite.protocol.score.score_gait`, the card's tiers × 2 test seeds,
     `--threads`) against a rollout of the nominal gait.
 ratio = ours / raw in physics steps per second: 1 is free, the goal is ≥ 0.8 (issue 55),
@@ -51,9 +55,12 @@ DARWIN_TIERS = (
     "darwin_walk_rough",
     "darwin_walk_contact",
 )
-PATHS = ("env", "vector", "evaluator", "score")
+PATHS = ("env", "vector", "evaluator", "feedback", "score")
 GOAL, FLOOR = 0.8, 0.75
 _ROBOTS, _VECTOR_SEED = 8, 100
+# A round of the feedback runs (`cmaes --controller=feedback`): 50 candidates × 2 starts on
+# the randomized tier.
+_FEEDBACK_K, _FEEDBACK_SEEDS, _FEEDBACK_TIER = 50, (0, 1), "darwin_walk_randomized"
 
 
 def _best(fn, repeats: int, now) -> float:
@@ -167,6 +174,46 @@ def evaluator(steps: int, threads: int, repeats: int, now) -> tuple[float, float
     return counted[-1] / ours, controls.shape[0] * controls.shape[1] / raw
 
 
+def feedback_evaluator(steps: int, threads: int, repeats: int, now) -> tuple[float, float]:
+    """(ours, raw) physics steps per second of the closed-loop evaluator on a round of the
+    feedback runs' size, and of a rollout of the controls it set in each control step,
+    from its trials' initial states on their episodes' models."""
+    from cpg_suite import feedback
+    from cpg_suite.evaluation.closed_loop import FeedbackEvaluator
+
+    rng = np.random.default_rng(1)
+    amplitudes = cpg.amplitudes_from("hand_tuned") + rng.standard_normal((_FEEDBACK_K, 11))
+    gains = rng.uniform(-0.05, 0.05, (_FEEDBACK_K, feedback.N_GAINS))
+    params = np.concatenate([amplitudes, gains], axis=1)
+    with FeedbackEvaluator(_FEEDBACK_TIER, steps, threads) as ev:
+        counted = []
+
+        def run():
+            counted.append(ev.evaluate(params, _FEEDBACK_SEEDS).sim_steps)
+
+        ours = _best(run, repeats, now)
+        step_trial, given = ev._step_trial, {}
+
+        def recording(trial, ctrl, t, quality):  # the controls each trial was given
+            given.setdefault(id(trial), (trial, []))[1].append(np.array(ctrl))
+            step_trial(trial, ctrl, t, quality)
+
+        ev._step_trial = recording
+        ev.evaluate(params, _FEEDBACK_SEEDS)
+        episodes = [ev._open.episode(s) for s in _FEEDBACK_SEEDS]
+    trials = len(given)
+    controls = np.zeros((trials, steps * ev.n_sub, episodes[0].model.nu))
+    for k, (_, ctrls) in enumerate(given.values()):  # a fallen trial's last controls held
+        held = np.repeat(np.array(ctrls), ev.n_sub, axis=0)
+        controls[k] = np.concatenate([held, np.repeat(held[-1:], steps * ev.n_sub - len(held), 0)])
+    order = [episodes[k % len(episodes)] for k in range(trials)]  # trial = (candidate, seed)
+    models = [e.model for e in order]
+    initial = np.array([e.state for e in order])
+    datas = [mujoco.MjData(models[0]) for _ in range(threads)]
+    raw = _rollout(models, datas, initial, controls, threads, repeats, now)
+    return counted[-1] / ours, controls.shape[0] * controls.shape[1] / raw
+
+
 def scoring(steps: int, threads: int, repeats: int, now) -> tuple[float, float]:
     """(ours, raw) physics steps per second of scoring the hand-tuned gait (the card's tiers ×
     2 test seeds) and of rollouts of the same trials: each from its episode's reset state on
@@ -227,6 +274,11 @@ def ratios(
         )
     if "evaluator" in paths:
         yield "open-loop evaluator (8 candidates)", *evaluator(steps, threads, repeats, now)
+    if "feedback" in paths:
+        yield (
+            f"closed-loop evaluator ({_FEEDBACK_K}x{len(_FEEDBACK_SEEDS)} trials)",
+            *feedback_evaluator(max(1, steps // 4), threads, repeats, now),
+        )
     if "score" in paths:
         # Best of `repeats` like the others: a card's 50 seeds a tier amortize the evaluators'
         # set-up (model compiles and copies) that a single cold call of 2 seeds weighs 25x.

@@ -41,6 +41,45 @@ def test_results_do_not_depend_on_threads_or_batch():
     assert batch.fall_step[2, 1] == alone.fall_step[0, 0]
 
 
+@pytest.mark.parametrize("spin", [0.0, 1000.0, 1e5])  # none; a warning in step 6; in step 1
+def test_a_trials_substeps_are_the_loops_warnings_included(spin):
+    """A trial's substeps (`mj_step2`, then one rollout of `mj_step`s) leave its state,
+    records and warning counts as `mj_step2` then a loop of `mj_step` does, also when a
+    warning stops the rollout part-way (its steps are then taken again in the loop)."""
+    import mujoco
+
+    from cpg_suite.evaluation import closed_loop
+
+    with FeedbackEvaluator("darwin_walk_push", 20) as evaluator:
+        episode = evaluator._open.episode(3)
+        trial = closed_loop._Trial(episode, evaluator._open._monitor(episode), evaluator._layout)
+    model, data = trial.model, trial.data
+    data.qvel[6:] = spin  # the servos' joints spinning: the acceleration diverges
+    data.warning.number[mujoco.mjtWarning.mjWARN_INERTIA] = 2  # counts kept from before
+    data.xfrc_applied[1, :3] = (3.0, -1.0, 0.0)  # an input a rollout must not clear
+    mujoco.mj_forward(model, data)
+    reference = mujoco.MjData(model)
+    spec = mujoco.mjtState.mjSTATE_INTEGRATION
+    state = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, state, spec)
+    mujoco.mj_setState(model, reference, state, spec)
+    reference.qacc_warmstart[:] = data.qacc_warmstart
+    reference.warning.number[:] = data.warning.number
+    mujoco.mj_forward(model, reference)
+    full = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    states, sensors = np.zeros_like(trial.states), np.zeros_like(trial.sensors)
+    for i in range(len(states)):
+        (mujoco.mj_step if i else mujoco.mj_step2)(model, reference)
+        mujoco.mj_getState(model, reference, states[i], full)
+        sensors[i] = reference.sensordata
+    trial.substeps()
+    assert np.array_equal(trial.states, states) and np.array_equal(trial.sensors, sensors)
+    assert np.array_equal(data.warning.number, reference.warning.number)
+    assert data.warning.number[mujoco.mjtWarning.mjWARN_BADQACC] == (spin > 0)
+    for field in ("qpos", "qvel", "qacc_warmstart", "ctrl", "xfrc_applied"):
+        assert np.array_equal(getattr(data, field), getattr(reference, field)), field
+
+
 def test_bad_parameters_are_refused():
     with FeedbackEvaluator("darwin_walk", 10) as evaluator:
         with pytest.raises(ValueError, match="22 columns"):

@@ -31,7 +31,7 @@ def check_model(model: mujoco.wrapper.MjModel) -> None:
     four pyramid-edge forces per contact); the actuators are the legs' then the arms'
     servos (the `servo_forces` sensors and `cpg_suite.electrical` read them in that order);
     the integrator has one stage (`recording.substeps` finishes a step with
-    `mj_step2`).
+    `mj_step2`); the `servo_forces` sensors read the actuators' forces as they are.
 
     Args:
       model: The DARwIn-OP model.
@@ -49,6 +49,27 @@ def check_model(model: mujoco.wrapper.MjModel) -> None:
         or model.opt.integrator == mj.mjtIntegrator.mjINT_RK4
     ):
         raise ValueError("expects the legs' then the arms' servos and a one-stage integrator")
+    _check_servo_force_sensors(model)
+
+
+def _check_servo_force_sensors(model: mujoco.wrapper.MjModel) -> None:
+    """The `servo_forces` readings are the actuators' forces, one each, in actuator order,
+    as MuJoCo computed them (no cutoff, noise, delay or interval): the evaluators read the
+    servos' forces after each physics step from a rollout's recorded sensors."""
+    span = robot.sensor_slices(model)["servo_forces"]
+    ids = np.flatnonzero((model.sensor_adr >= span.start) & (model.sensor_adr < span.stop))
+    plain = not any(
+        np.any(getattr(model, field)[ids])
+        for field in ("sensor_cutoff", "sensor_noise", "sensor_delay", "sensor_interval")
+    )
+    if not (
+        plain
+        and np.all(model.sensor_type[ids] == mj.mjtSensor.mjSENS_ACTUATORFRC)
+        and np.array_equal(model.sensor_objid[ids], np.arange(model.nu))
+        and np.all(model.sensor_dim[ids] == 1)
+        and span.stop - span.start == model.nu
+    ):
+        raise ValueError("expects one plain actuatorfrc sensor per servo, in actuator order")
 
 
 @contextlib.contextmanager

@@ -15,13 +15,15 @@ on the batch or the thread count.
 from __future__ import annotations
 
 import concurrent.futures
+import dataclasses
 
 import mujoco
 import numpy as np
+from mujoco import rollout
 
 import cpg_suite
 from cpg_suite import cpg, darwin, electrical, feedback
-from cpg_suite.base import clear_invalid_state_warnings, invalid_state
+from cpg_suite.base import _INVALID_STATE_WARNINGS
 from cpg_suite.evaluation import quality as gait_quality
 from cpg_suite.evaluation.open_loop import (
     BROWNOUT,
@@ -33,6 +35,10 @@ from cpg_suite.evaluation.open_loop import (
 )
 
 _FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
+# The inputs a rollout leaves as they are (controls, applied forces, mocap, equalities):
+# given none, it neither sets nor clears them, so the trial's stay in its data.
+_INPUTS = int(mujoco.mjtState.mjSTATE_USER)
+_INVALID = np.array(_INVALID_STATE_WARNINGS)  # the warnings `invalid_state` reads
 
 
 class FeedbackPolicy:
@@ -62,19 +68,95 @@ class FeedbackPolicy:
         return self._physics.targets_to_action(targets)
 
 
-class _Trial:
-    """One trial's MuJoCo data and what it has measured so far."""
+@dataclasses.dataclass(frozen=True)
+class _Layout:
+    """Addresses every trial of an evaluator shares (the tiers change no layout)."""
 
-    def __init__(self, episode: Episode, root: int, supply: electrical.SupplyMonitor):
-        self.model, self.pushes, self.supply = episode.model, episode.pushes, supply
-        self.data = mujoco.MjData(episode.model)
-        mujoco.mj_setState(self.model, self.data, episode.state, _FULLPHYSICS)
-        self.data.ctrl[:] = episode.ctrl
-        mujoco.mj_forward(self.model, self.data)  # the reset's observation (its sensors)
-        self.start = self.data.qpos[root : root + 2].copy()
+    root: int  # the free joint's first `qpos` address
+    torso: int  # the torso's body id (the row of `xfrc_applied` a push acts on)
+    servo_dofs: np.ndarray  # the servos' joints' `qvel` addresses, actuator order
+    n_sub: int  # physics steps per control step
+
+
+class _Trial:
+    """One trial's MuJoCo data, what it has measured so far, and its substeps' records.
+
+    The views of its data a control step reads and writes are made once (cheaper than
+    looking them up on every step).
+    """
+
+    def __init__(
+        self,
+        episode: Episode,
+        supply: electrical.SupplyMonitor,
+        layout: _Layout,
+    ):
+        model = self.model = episode.model
+        self.pushes, self.supply = episode.pushes, supply
+        data = self.data = mujoco.MjData(model)
+        mujoco.mj_setState(model, data, episode.state, _FULLPHYSICS)
+        data.ctrl[:] = episode.ctrl
+        mujoco.mj_forward(model, data)  # the reset's observation (its sensors)
+        root = layout.root
+        self.start = data.qpos[root : root + 2].copy()
         self.last = self.start.copy()
-        self.root = self.data.qpos[root : root + 7].copy()
+        self.root = data.qpos[root : root + 7].copy()
         self.fall_step, self.cause, self.simulated, self.record = 0, 0, 0, []
+        self.ctrl, self.push = data.ctrl, data.xfrc_applied[layout.torso, :3]  # views
+        self.root_qpos = data.qpos[root : root + 7]  # a view
+        self.warnings = data.warning.number  # a view: the counts a rollout clears
+        self.damping = model.dof_damping[layout.servo_dofs]  # the episode's, fixed
+        self.meter = electrical.SupplyMeter(layout.n_sub, len(layout.servo_dofs))
+        nstate = mujoco.mj_stateSize(model, _FULLPHYSICS)
+        self.states = np.zeros((layout.n_sub, nstate))  # the full state after each substep
+        self.sensors = np.zeros((layout.n_sub, model.nsensordata))  # the sensors after each
+        self._models, self._datas = [model], [data]
+        self._warmstart = np.zeros((1, model.nv))  # the warm start a rollout starts from
+        self._inputs = np.zeros(mujoco.mj_stateSize(model, _INPUTS))  # controls, forces, ...
+        self._warmstart_now = data.qacc_warmstart  # a view
+        self._runner = rollout.Rollout(nthread=0)  # on the calling thread, the GIL released
+
+    def substeps(self) -> None:
+        """The physics steps of a control step as dm_control takes them (`mj_step2`, which
+        finishes the step whose `mj_step1` ran for the last observation, then `mj_step`),
+        each step's full state and sensors recorded.
+
+        The `mj_step` calls are one `mujoco.rollout` from the state and warm start the loop
+        would step from: the same calls on the same inputs, so the same bits, with the GIL
+        released. A rollout clears the warning counts and stops at a warning (MuJoCo resets
+        the data at a divergent acceleration, inputs included); after one, the steps are
+        taken again in the loop from the same state and inputs, so the counts and the state
+        are the loop's (`tests/test_feedback_eval.py`).
+        """
+        model, data, states, sensors = self.model, self.data, self.states, self.sensors
+        mujoco.mj_step2(model, data)
+        mujoco.mj_getState(model, data, states[0], _FULLPHYSICS)
+        sensors[0] = data.sensordata
+        counts = self.warnings.copy() if self.warnings.any() else None
+        self._warmstart[0] = self._warmstart_now
+        mujoco.mj_getState(model, data, self._inputs, _INPUTS)  # a reset at a warning clears them
+        self._runner.rollout(
+            self._models,
+            self._datas,
+            states[:1],
+            control_spec=_INPUTS,
+            skip_checks=True,
+            nstep=len(states) - 1,
+            initial_warmstart=self._warmstart,
+            state=states[1:],
+            sensordata=sensors[1:],
+        )
+        if self.warnings.any():  # it stopped at a warning: the loop's steps
+            mujoco.mj_setState(model, data, states[0], _FULLPHYSICS)
+            mujoco.mj_setState(model, data, self._inputs, _INPUTS)
+            self._warmstart_now[:] = self._warmstart[0]
+            self.warnings[:] = 0 if counts is None else counts
+            for i in range(1, len(states)):
+                mujoco.mj_step(model, data)
+                mujoco.mj_getState(model, data, states[i], _FULLPHYSICS)
+                sensors[i] = data.sensordata
+        elif counts is not None:
+            self.warnings[:] = counts  # the rollout cleared them
 
 
 class FeedbackEvaluator:
@@ -109,8 +191,18 @@ class FeedbackEvaluator:
         self._torso = physics.torso_body()
         self._sensors = physics.sensor_slices()
         self._servo_dofs = physics.servo_dofs()
+        model = physics.model
+        # The columns of a recorded full state holding the servos' joint velocities, and the
+        # sensor columns a quality record holds after them (`RECORDED_SENSORS`' order).
+        self._servo_velocities = 1 + model.nq + self._servo_dofs
+        self._recorded = np.concatenate(
+            [np.arange(self._sensors[k].start, self._sensors[k].stop) for k in RECORDED_SENSORS]
+        )
+        forces = self._sensors["servo_forces"]
+        self._servo_forces = np.arange(forces.start, forces.stop)
         self.supply = self._open.supply  # None: the study's unlimited physics
-        self._root = int(physics.model.jnt_qposadr[physics.model.name2id("root", "joint")])
+        self._root = int(model.jnt_qposadr[model.name2id("root", "joint")])
+        self._layout = _Layout(self._root, self._torso, self._servo_dofs, self.n_sub)
         self._executor = concurrent.futures.ThreadPoolExecutor(threads) if threads > 1 else None
         self.threads = threads
 
@@ -143,7 +235,7 @@ class FeedbackEvaluator:
         rows = np.repeat(p, len(seeds), axis=0)  # trial i = (k, seed) = (i // S, i % S)
         episodes = [self._open.episode(s) for s in seeds]
         trials = [
-            _Trial(episode, self._root, self._open._monitor(episode))
+            _Trial(episode, self._open._monitor(episode), self._layout)
             for _ in p
             for episode in episodes
         ]
@@ -192,41 +284,28 @@ class FeedbackEvaluator:
 
     def _step_trial(self, trial: _Trial, ctrl: np.ndarray, t: int, quality: bool) -> None:
         """One control step as `control.Environment.step` takes it (`score.step_policy`)."""
-        model, data = trial.model, trial.data
-        data.ctrl[:] = ctrl
+        trial.ctrl[:] = ctrl
         if trial.pushes is not None:
-            data.xfrc_applied[self._torso, :3] = trial.pushes[t]
-        clear_invalid_state_warnings(data)
-        force = np.empty((self.n_sub, model.nu))
-        velocity = np.empty((self.n_sub, len(self._servo_dofs)))
-        for i in range(self.n_sub):
-            mujoco.mj_step(model, data)
-            force[i] = data.actuator_force
-            velocity[i] = data.qvel[self._servo_dofs]
-            if quality:
-                trial.record.append(self._record(data))
+            trial.push[:] = trial.pushes[t]
+        trial.warnings[_INVALID] = 0  # `clear_invalid_state_warnings`
+        trial.substeps()
+        # C-ordered copies (`take`), as the arrays of a loop's rows: NumPy's reductions
+        # over them then add in the same order.
+        velocity = trial.states.take(self._servo_velocities, axis=1)
+        if quality:  # each substep: its servos' velocities, then `RECORDED_SENSORS`
+            recorded = trial.sensors.take(self._recorded, axis=1)
+            trial.record.append(np.concatenate([velocity, recorded], axis=1))
         trial.simulated += self.n_sub
-        if invalid_state(data):
+        if trial.warnings[_INVALID].any():  # `invalid_state`
             trial.fall_step, trial.cause = t + 1, FALL
             return
-        damping = model.dof_damping[self._servo_dofs]
-        if trial.supply.update(electrical.supply_current(force, velocity, damping)):
+        force = trial.sensors.take(self._servo_forces, axis=1)  # `actuator_force` after each
+        currents = trial.meter(force, velocity, trial.damping)  # `supply_current`'s bits
+        if trial.supply.update(currents):
             trial.fall_step, trial.cause = t + 1, BROWNOUT  # unless it fell too (`_falls`)
-        mujoco.mj_step1(model, data)
-        trial.root = data.qpos[self._root : self._root + 7].copy()
+        mujoco.mj_step1(trial.model, trial.data)
+        trial.root = trial.root_qpos.copy()
         trial.last = trial.root[:2]
-
-    def _record(self, data) -> np.ndarray:
-        s = self._sensors
-        return np.concatenate(
-            [
-                data.qvel[self._servo_dofs],
-                data.sensordata[s["servo_forces"]],
-                data.sensordata[s["foot_touch"]],
-                data.sensordata[s["sole_velocities"]],
-                data.sensordata[s["footing"]],
-            ]
-        )
 
     def _result(self, trials: list, shape: tuple, quality: bool) -> BatchResult:
         distance = np.array([t.last[0] - t.start[0] for t in trials]).reshape(shape)
@@ -245,7 +324,7 @@ class FeedbackEvaluator:
     def _measures(self, trial: _Trial, distance: float) -> dict:
         s, n = self._sensors, len(self._servo_dofs)
         width = n + sum(s[k].stop - s[k].start for k in RECORDED_SENSORS)
-        record = np.array(trial.record) if trial.record else np.zeros((0, width))
+        record = np.concatenate(trial.record) if trial.record else np.zeros((0, width))
         force, touch, sole, feet = np.split(record[:, n:], [n, n + 2, n + 8], axis=1)
         return gait_quality.measures(
             record[:, :n],

@@ -363,9 +363,10 @@ def policy_trial(
     """One trial of a policy on a tier, stepping the physics as `control.Environment` does.
 
     Each control step (`control_step`): the task applies the action (and any push), the
-    physics takes its substeps with `mj_step` (each one's quality sensors recorded, as
-    `mujoco.rollout` records them), then `mj_step1` refreshes positions and velocities for
-    the observation, as dm_control's stepping does, and the task adds the step's supply
+    physics takes its substeps as dm_control's stepping does (`mj_step2` finishes the step
+    whose `mj_step1` ran for the last observation, then `mj_step`; each one's quality
+    sensors recorded, as `mujoco.rollout` records them), then `mj_step1` refreshes
+    positions and velocities for the observation, and the task adds the step's supply
     currents. A fall, a brown-out or a divergent state (MuJoCo's invalid-state warnings)
     ends the trial.
 
@@ -490,10 +491,10 @@ def control_step(action, task, physics, n_sub: int, t: int, records: list, recor
     task.before_step(action, physics)
     clear_invalid_state_warnings(data)
     if record is None:
-        darwin_recording.substeps(physics, n_sub, sensors=True)
+        darwin_recording.substeps(physics, n_sub, finish=True, sensors=True)
         records.append(darwin_recording.sensor_steps(physics))
     else:
-        records += darwin_recording.substeps(physics, n_sub, record=record)
+        records += darwin_recording.substeps(physics, n_sub, finish=True, record=record)
     if invalid_state(data):
         return None, (t + 1, FALL), None
     mujoco.mj_step1(model, data)  # positions and velocities for the observation
