@@ -103,11 +103,15 @@ def _bench():
 # Below or at the floor on the machine the test was written on (2-core AVX-512 EPYC, issue
 # 55), each held to a lower floor of its own so that a regression still fails: the balance
 # reward's contact forces (mj_forwardSkip) and centre-of-pressure loop; the push tier and
-# the vector env measured 0.73-0.78x, too near 0.75 for a test that must not flake.
+# the vector env measured 0.73-0.78x, too near 0.75 for a test that must not flake; the
+# closed-loop evaluator.
 _KNOWN_LOW = {
     "env.step darwin_balance": (0.6, "0.66-0.74x: 10 us of mj_forwardSkip, ~12 of the COP loop"),
     "env.step darwin_walk_push": (0.65, "0.73-0.78x"),
     "vector env": (0.65, "0.74-0.76x"),
+    # Its feedback CPG integrates 16 substeps a control step in NumPy (~20 us a trial-step
+    # at 100 trials): the controller's own arithmetic, which a rollout of its controls skips.
+    "closed-loop evaluator": (0.55, "0.62-0.74x (0.62x before its rollout, 2026-11-28)"),
 }
 
 
@@ -116,7 +120,7 @@ def _floor(name: str, floor: float) -> float:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("path", ["env", "vector", "evaluator", "score"])
+@pytest.mark.parametrize("path", ["env", "vector", "evaluator", "feedback", "score"])
 def test_every_hot_path_keeps_three_quarters_of_raw_rollout(path):
     bench = _bench()
     low = []
