@@ -368,6 +368,26 @@ FORGERIES = {
         lambda run: np.savez_compressed(run / "selected_policy.npz", w=np.zeros(2**24)),
         "unreadable gait or policy (ValueError: selected_policy.npz unpacks to",
     ),
+    # A third outside attack (2026-11-28): nesting past Python's recursion limit, a number
+    # past a float's range, a seed left out of the config (two folders of one seed).
+    "summary_nested_deeply": (
+        lambda run: _raw(run, "summary.json", "[" * 100_000 + "]" * 100_000),
+        "unreadable run files (ValueError: summary.json: nested too deeply)",
+    ),
+    "summary_number_overflows": (
+        lambda run: _raw(
+            run,
+            "summary.json",
+            (run / "summary.json")
+            .read_text()
+            .replace('"evaluations": 2501', '"evaluations": 3e309'),
+        ),
+        "unreadable run files (ValueError: summary.json: 3e309 does not fit a float",
+    ),
+    "seed_left_out": (
+        lambda run: _edit_json(run / "config.json", lambda c: c["settings"].pop("seed")),
+        "config.json's seed None is not the seed of its folder's name (0)",
+    ),
     "trials_column_twice": (
         lambda run: _raw(
             run,

@@ -434,8 +434,12 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
     if reason:
         return reason
     match = SEED_NAME.match(name)
-    if match and "seed" in settings and settings["seed"] != int(match["seed"]):
-        return f"config.json's seed {settings['seed']} is not the seed of its folder's name"
+    seed = settings.get("seed")
+    if match and (type(seed) is not int or seed != int(match["seed"])):
+        return (
+            f"config.json's seed {seed!r} is not the seed of its folder's name "
+            f"({int(match['seed'])})"
+        )
     return None
 
 
@@ -722,8 +726,10 @@ def _seed_refusal(run_dir: str, seeds: dict) -> tuple[str | None, tuple]:
     not), and its key in `seeds` ({(method, task, configuration, training physics, seed):
     the run kept})."""
     settings = _read_json(os.path.join(run_dir, "config.json"))["settings"]
-    key = (*run_identity(run_dir), _trained_as(run_dir), settings.get("seed"))
-    if settings.get("seed") is not None and key in seeds:
+    match = SEED_NAME.match(os.path.basename(os.path.normpath(run_dir)))
+    seed = int(match["seed"]) if match else settings.get("seed")  # the folder's, if named
+    key = (*run_identity(run_dir), _trained_as(run_dir), seed)
+    if seed is not None and key in seeds:
         where = os.path.join(*_tail(seeds[key]))
         return f"a second run of seed {key[-1]} of its configuration ({where}: the first)", key
     return None, key

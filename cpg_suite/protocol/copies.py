@@ -8,17 +8,18 @@ A run's fingerprint holds
   `TRIAL_TOLERANCE_M`);
 * its gait or policy as parsed values: a gait's amplitudes and feedback gains (absent
   gains are 0, as `feedback.load_params` reads them), an exported policy's arrays or an
-  action table (NumPy, read without unpickling), each equal within `VALUE_RTOL`; a policy's
+  action table (NumPy, read without unpickling), each array within `VALUE_RTOL` of its
+  largest value (`value_distance`); a policy's
   Python file as its syntax tree (comments and layout aside; parsed, never run); a
   Stable-Baselines3 model's zip members and normalizer as bytes (reading them as values
   would unpickle them).
 
 Padding in a `.npy` header, a trailing `0` in a CSV number, keys reordered or spaces added
 in JSON, a comment added to code: the values stay, and so does the copy. The tolerances
-catch what the bytes hide too — a gait nudged in its last digits and scored again is the
-same gait. They are choices, far below what separates two honest seeds: a test checks
-that the shipped runs of one trained version lie at least 1000 times the tolerances apart
-(`closest_pairs`).
+catch what the bytes hide too — a gait nudged by up to 2 % and scored again is the same
+gait. They are choices, below what separates two honest seeds: a test checks that the
+shipped runs of one trained version lie at least 1000 times the trial tolerance and 5
+times the value tolerance apart (`closest_pairs`).
 
 Nothing here executes code: JSON and CSV are parsed, NumPy arrays are read with
 `allow_pickle=False`, Python is parsed with `ast`, pickles are hashed.
@@ -42,9 +43,12 @@ from cpg_suite.protocol import files as run_files
 # a float printed with fewer digits differs by < 1e-15 m; a forger nudging every trial by
 # more than this moves the card by as much, and meets `verify --sample`).
 TRIAL_TOLERANCE_M = 1e-3
-# Relative: two gaits or policies whose values all lie this close are one (a choice: the
-# closest two shipped ones differ by 35 % in their most different value).
-VALUE_RTOL = 1e-4
+# Relative to an array's largest magnitude: two gaits or policies each of whose arrays
+# differ by at most this share of its largest value are one (a choice: the closest two
+# shipped runs of one trained version differ by 11.5 % of their amplitudes' largest, CEM
+# seeds 0 and 4, so honest seeds lie 5.7 times above; a gait nudged by less, each nudge
+# scored again as a seed, is the same gait).
+VALUE_RTOL = 2e-2
 VALUE_ATOL = 1e-12
 
 
@@ -168,10 +172,26 @@ def same_artifact(a: Fingerprint, b: Fingerprint) -> bool:
         return False
     if a.values is None:
         return True
-    return all(
-        np.allclose(x, y, rtol=VALUE_RTOL, atol=VALUE_ATOL, equal_nan=True)
-        for x, y in zip(a.values, b.values)
-    )
+    return all(value_distance(x, y) <= VALUE_RTOL for x, y in zip(a.values, b.values))
+
+
+def value_distance(x: np.ndarray, y: np.ndarray) -> float:
+    """How far apart two arrays of one shape are: their largest difference over the larger
+    of their largest magnitudes (0 for equal arrays, NaN where both are NaN counting as
+    equal; inf where only one is NaN).
+
+    Args:
+      x, y: Float arrays of one shape.
+    """
+    nan_x, nan_y = np.isnan(x), np.isnan(y)
+    if not np.array_equal(nan_x, nan_y):
+        return float("inf")
+    x, y = x[~nan_x], y[~nan_y]
+    if not x.size:
+        return 0.0
+    scale = max(float(np.max(np.abs(x))), float(np.max(np.abs(y))))
+    difference = float(np.max(np.abs(x - y)))
+    return 0.0 if difference <= VALUE_ATOL else difference / max(scale, VALUE_ATOL)
 
 
 def copy_of(later: Fingerprint, earlier: Fingerprint) -> str | None:
@@ -196,9 +216,9 @@ def started(run_dir: str) -> str:
 
 def closest_pairs(prints: dict[str, Fingerprint]) -> tuple[float, float]:
     """The smallest trial-table and gait-or-policy distance between two runs of `prints`
-    (max absolute distance difference over trials with equal outcomes, m; max relative
-    value difference over artifacts of one structure): how far the tolerances lie from
-    honest runs.
+    (max absolute distance difference over trials with equal outcomes, m; `value_distance`'s
+    largest over the arrays of two artifacts of one structure): how far the tolerances lie
+    from honest runs.
 
     Returns:
       `(trials_m, values_rel)`; inf where no two runs are comparable.
@@ -210,10 +230,6 @@ def closest_pairs(prints: dict[str, Fingerprint]) -> tuple[float, float]:
             if a.outcomes == b.outcomes:
                 trials_m = min(trials_m, float(np.max(np.abs(a.distances - b.distances))))
             if a.values is not None and (a.kind, a.structure) == (b.kind, b.structure):
-                rel = max(
-                    float(np.max(np.abs(x - y) / np.maximum(np.abs(y), 1e-300)))
-                    for x, y in zip(a.values, b.values)
-                    if x.size
-                )
+                rel = max(value_distance(x, y) for x, y in zip(a.values, b.values))
                 values_rel = min(values_rel, rel)
     return trials_m, values_rel

@@ -12,6 +12,7 @@ CSV table's header names each column once.
 from __future__ import annotations
 
 import json
+import math
 import os
 import stat
 
@@ -72,9 +73,17 @@ def _no_constant(name: str):
     raise ValueError(f"{name} is not a JSON number")
 
 
+def _finite_float(text: str) -> float:
+    """A JSON number as a float, refused if it does not fit one (1e309 is not infinity)."""
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text} does not fit a float")
+    return value
+
+
 def read_json(path: str) -> object:
     """A run's JSON file, strictly: a regular file (`refusal`), each key once per object,
-    no NaN or Infinity.
+    no NaN or Infinity (nor a number too large for a float), nesting Python can parse.
 
     Raises:
       OSError: If it cannot be read.
@@ -82,7 +91,14 @@ def read_json(path: str) -> object:
     """
     text = read_bytes(path).decode("utf-8")
     try:
-        return json.loads(text, object_pairs_hook=_strict_object, parse_constant=_no_constant)
+        return json.loads(
+            text,
+            object_pairs_hook=_strict_object,
+            parse_constant=_no_constant,
+            parse_float=_finite_float,
+        )
+    except RecursionError:
+        raise ValueError(f"{os.path.basename(path)}: nested too deeply") from None
     except ValueError as e:
         raise ValueError(f"{os.path.basename(path)}: {e}") from None
 
