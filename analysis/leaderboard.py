@@ -364,13 +364,22 @@ def budget_track(summaries: list[dict]) -> str:
     known), "4x" (four times that) or "over_4x"; "" for presets (no training)."""
     if not any("evaluations" in s or "env_steps" in s for s in summaries):
         return ""
-    ratio = max(
-        s.get("budget_control_steps", s["env_steps"]) / STUDY_CONTROL_STEPS
-        if "env_steps" in s
-        else s["evaluations"] / STUDY_TRIALS
-        for s in summaries
-    )
+    ratio = max(_budget_ratio(s) for s in summaries)
     return "study" if ratio <= 1 else "4x" if ratio <= 4 else "over_4x"
+
+
+def _budget_ratio(summary: dict) -> float:
+    """A run's training budget over the study's (inf where it does not say it as a count:
+    a refused run's summary, which a report of unadmitted cards still reads)."""
+    if "env_steps" in summary:
+        steps = summary.get("budget_control_steps", summary["env_steps"])
+        return steps / STUDY_CONTROL_STEPS if _is_count(steps) else math.inf
+    trials = summary.get("evaluations")
+    return trials / STUDY_TRIALS if _is_count(trials) else math.inf
+
+
+def _is_count(value) -> bool:
+    return type(value) is int and value >= 0
 
 
 def _trained_as(version: int | None) -> int | None:

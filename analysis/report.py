@@ -29,6 +29,7 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
 import csv
 import dataclasses
+import io
 import json
 import math
 import os
@@ -41,8 +42,12 @@ from absl import flags
 
 from analysis import leaderboard
 from cpg_suite import cli
+from cpg_suite.protocol import files as run_files
 
 POLICY_LEARNERS = ("ppo", "ppo_mjx")  # methods whose runs train a policy, not a gait
+# s: the most a helper program (a gait's joint targets, its rendering) may take before the
+# report gives up on it (a choice: each takes seconds to a minute on 2 cores).
+_SUBPROCESS_TIMEOUT_S = 600
 
 
 def _plt():
@@ -64,10 +69,11 @@ def _save(plt, fig, out: str, name: str) -> str:
 
 
 def _read_csv(path: str) -> list[dict]:
+    """A run's CSV table, read as the board reads run files (`run_files.read_text`: a regular
+    file of bounded size, never a pipe or a device); [] if it cannot be."""
     try:
-        with open(path, encoding="utf-8") as f:
-            return list(csv.DictReader(f))
-    except (OSError, csv.Error):
+        return list(csv.DictReader(io.StringIO(run_files.read_text(path))))
+    except (OSError, ValueError, csv.Error):
         return []
 
 
@@ -284,7 +290,9 @@ def _joint_targets(params: str, out: str, name: str) -> dict[str, np.ndarray]:
         f"--params={params}",
         f"--out={path}",
     ]
-    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    done = subprocess.run(
+        command, capture_output=True, text=True, check=False, timeout=_SUBPROCESS_TIMEOUT_S
+    )
     if done.returncode != 0:
         raise RuntimeError(f"joint targets of {params} failed: {done.stderr.strip()[-500:]}")
     table = np.genfromtxt(path, delimiter=",", names=True)
@@ -439,8 +447,10 @@ def gaits(found: list[dict], out: str) -> str | None:
         return None
     from PIL import Image, ImageDraw
 
-    with open(path, encoding="utf-8") as f:
-        best = json.load(f)
+    try:
+        best = run_files.read_json(path)  # a regular file, strict JSON, as the board reads it
+    except (OSError, ValueError) as e:
+        raise RuntimeError(f"the best gait's file cannot be read: {e}") from None
     best_params = os.path.join(out, "gait_best.json")
     with open(best_params, "w", encoding="utf-8") as f:
         json.dump(best, f)
@@ -458,7 +468,12 @@ def gaits(found: list[dict], out: str) -> str | None:
             "--strip_start=8.0",
         ]
         done = subprocess.run(
-            command, capture_output=True, text=True, check=False, env=cli.rendering_child_env()
+            command,
+            capture_output=True,
+            text=True,
+            check=False,
+            env=cli.rendering_child_env(),
+            timeout=_SUBPROCESS_TIMEOUT_S,
         )
         if done.returncode != 0:
             raise RuntimeError(f"rendering {params} failed: {done.stderr.strip()[-500:]}")

@@ -384,6 +384,14 @@ FORGERIES = {
         ),
         "unreadable run files (ValueError: summary.json: 3e309 does not fit a float",
     ),
+    "budget_track_by_env_steps": (  # the board's budget track reads env_steps first
+        lambda run: _edit_json(run / "summary.json", lambda s: s.update(env_steps=0)),
+        "summary.json claims env_steps, a learner's budget, but config.json sets no total_steps",
+    ),
+    "validation_steps_not_a_count": (
+        lambda run: _edit_json(run / "summary.json", lambda s: s.update(validation_sim_steps="x")),
+        "summary.json's validation_sim_steps is 'x', not a count",
+    ),
     "seed_left_out": (
         lambda run: _edit_json(run / "config.json", lambda c: c["settings"].pop("seed")),
         "config.json's seed None is not the seed of its folder's name (0)",

@@ -53,3 +53,19 @@ def test_report_from_small_runs(tmp_path):
     assert (out / "leaderboard.csv").exists() and not (out / "claims.csv").exists()
     assert "python -m analysis.study" in text
     assert np.isfinite(float((out / "leaderboard.csv").read_text().splitlines()[1].split(",")[6]))
+
+
+def test_the_report_reads_run_files_as_the_board_does(tmp_path):
+    """A third outside attack: a run's progress.csv a FIFO (a plain `open` waits forever for
+    a writer) or a link to /dev/zero; a refused run's budget that is no count."""
+    import os
+
+    from analysis import leaderboard, report
+
+    fifo = tmp_path / "progress.csv"
+    os.mkfifo(fifo)
+    assert report._read_csv(str(fifo)) == []
+    (tmp_path / "zero.csv").symlink_to("/dev/zero")
+    assert report._read_csv(str(tmp_path / "zero.csv")) == []
+    assert leaderboard.budget_track([{"evaluations": "2501"}]) == "over_4x"
+    assert leaderboard.budget_track([{"evaluations": 2501}]) == "study"

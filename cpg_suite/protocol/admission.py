@@ -504,7 +504,8 @@ def _count(value) -> bool:
 def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
     """Why what a run says of its training does not hold together (None: it does): its
     config names the task of its folder; its budget is a count (`evaluations` for a run
-    whose config sets a population and rounds, `env_steps` for a learner's `total_steps`),
+    whose config sets a population and rounds, `env_steps` only for a learner's
+    `total_steps`), as are its simulated steps,
     no less than its config gave it (population × rounds × `eval_seeds`, 1 if unset; the
     learner's `total_steps`). The training itself is the submitter's word: only a re-run
     shows it (docs/protocol.md#admission).
@@ -517,9 +518,13 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
     task = os.path.basename(os.path.dirname(os.path.normpath(os.path.abspath(run_dir))))
     if settings.get("task") != task:
         return f"config.json says it trained on {settings.get('task')!r}, its folder on {task!r}"
-    for key in ("evaluations", "env_steps", "sim_steps"):
+    for key in ("evaluations", "env_steps", "sim_steps", "validation_sim_steps"):
         if key in summary and not _count(summary[key]):
             return f"summary.json's {key} is {summary[key]!r}, not a count"
+    if "env_steps" in summary and "total_steps" not in settings:  # the board's budget reads it
+        return (
+            "summary.json claims env_steps, a learner's budget, but config.json sets no total_steps"
+        )
     given = {k: settings[k] for k in ("population", "rounds", "eval_seeds") if k in settings}
     if "population" in given or "rounds" in given:
         given.setdefault("eval_seeds", 1)
