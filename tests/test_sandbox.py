@@ -4,6 +4,7 @@ keeps its trials bit for bit; counting trials tells it nothing."""
 
 import os
 import textwrap
+import time
 
 import numpy as np
 import pytest
@@ -218,3 +219,124 @@ def test_arrays_cross_as_the_same_bits():
     with pytest.raises(ValueError, match="Python objects"):
         sandbox.decode_arrays(sandbox.encode_arrays({"o": np.array([object()])}))
     assert not os.environ.get("_never_set_by_the_sandbox")
+
+
+# A third outside attack (2026-11-28): the policy's process rewrote its run's card after
+# `verify` checked it, from a process it had left running. It may write no file now, and
+# what it starts in its process group ends with it.
+WRITER = """
+import os
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def _write(name):
+    try:
+        with open(os.path.join(HERE, name), "w") as f:
+            f.write("forged")
+    except OSError:
+        pass
+
+
+def make_policy():
+    _write("at_load.txt")
+    pid = os.fork()
+    if pid == 0:  # left running, to act after the scoring
+        os.mkdir(os.path.join(HERE, f"pid_{os.getpid()}"))  # no bytes: it may
+        time.sleep(120)
+        _write("later.txt")
+        os._exit(0)
+
+    def policy(observation):
+        _write("in_trial.txt")
+        return np.zeros(12)
+
+    return policy
+"""
+
+
+def test_a_policy_writes_no_file_and_leaves_no_process_behind(tmp_path):
+    path = _write(tmp_path, "policy_code.py", WRITER)
+    policy = sandbox.IsolatedPolicy(path)
+    try:
+        assert policy({"x": np.zeros(2)}).shape == (12,)
+        for _ in range(100):  # the child's mkdir, which it may do
+            marks = [p for p in os.listdir(tmp_path) if p.startswith("pid_")]
+            if marks:
+                break
+            time.sleep(0.05)
+    finally:
+        policy.close()
+    (mark,) = marks
+    pid = int(mark.removeprefix("pid_"))
+    for _ in range(100):  # ended by `close` (a zombie of nobody's, or gone)
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                if f.read().split(") ")[1].startswith(("Z", "X")):
+                    break
+        except FileNotFoundError:
+            break
+        time.sleep(0.05)
+    else:
+        raise AssertionError(f"process {pid} outlived the policy")
+    for name in ("at_load.txt", "in_trial.txt"):
+        assert not (tmp_path / name).exists() or (tmp_path / name).read_text() == "", name
+
+
+RENAMER = """
+import os
+
+from cpg_suite.protocol import score
+
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def make_policy():
+    # What it may still do without writing a byte: move its run's files about.
+    os.rename(os.path.join(HERE, "versions.json"), os.path.join(HERE, "versions.old"))
+    import numpy as np
+    from cpg_suite import cpg
+
+    return score.OpenLoopPolicy(np.array(cpg.PRESETS["hand_tuned"]))
+"""
+
+
+def test_verify_records_no_run_whose_files_changed_while_it_was_checked(tmp_path):
+    """A policy that is code moves its run's files while `verify` checks it: the check
+    says so, and the ledger row names the files as they were checked."""
+    import shutil
+
+    from cpg_suite.protocol import admission, verify
+
+    run = tmp_path / "runs" / "mine" / "darwin_walk" / "code_seed0"
+    shutil.copytree(
+        os.path.join(
+            os.path.dirname(__file__),
+            "..",
+            "results",
+            "protocol",
+            "runs",
+            "cem",
+            "darwin_walk",
+            "K50_n0.8_e2_seed0",
+        ),
+        run,
+    )
+    os.remove(run / "selected_params.json")
+    (run / "policy_code.py").write_text(RENAMER)
+    before = admission.run_digest(str(run))
+    how = {
+        "sample": 1,
+        "entropy": 0,
+        "threads": 1,
+        "trust_code": True,
+        "trusted": (),
+        "quick": False,
+    }
+    problems, digest = verify._check_run(str(run), how)
+    assert problems[-1] == "its files changed while it was being checked"
+    assert digest == before

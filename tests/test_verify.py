@@ -301,9 +301,9 @@ def test_a_run_done_early_is_recorded_before_an_earlier_one_in_path_order(tmp_pa
     ledger = str(tmp_path / "protocol" / admission.LEDGER)
     release = threading.Event()
     with concurrent.futures.ThreadPoolExecutor(2) as pool:
-        futures = {
-            dirs[0]: pool.submit(lambda: release.wait(60) and []),
-            dirs[1]: pool.submit(list),
+        futures = {  # `_check_run`'s results: problems, the digest checked
+            dirs[0]: pool.submit(lambda: release.wait(60) and ([], None)),
+            dirs[1]: pool.submit(lambda: ([], None)),
         }
         writer = threading.Thread(target=verify._record_as_done, args=(ledger, futures, 0))
         writer.start()

@@ -21,23 +21,31 @@ back as the same float64 values, so an honest policy's card is the same, bit for
 (`tests/test_sandbox.py`).
 
 The boundary holds against Python: frames, globals, the objects of the scorer's process,
-counters. The policy may read files (no seed or state of a trial is written to one). It
-is not an operating-system sandbox: the kernel keeps an unprivileged user's process from
-reading its parent's memory (ptrace rules), but a process running as root may; run
-`verify` as an unprivileged user, or in a container, where that matters
-(docs/protocol.md#data-and-code).
+counters. The policy may read files (no seed or state of a trial is written to one), but
+writes none: its process and all it starts have a file size limit of 0 (so it cannot
+rewrite its run's card, trials or the ledger after `verify` checked them), and `close`
+ends its whole process group. `verify` also compares a run's files before and after its
+check and records the digest it checked. It is not an operating-system sandbox: the
+kernel keeps an unprivileged user's process from reading its parent's memory (ptrace
+rules) or raising its limits, but a process running as root may do both, and a process
+that leaves its group (`setsid`) outlives `close`; run `verify` as an unprivileged user,
+or in a container, where that matters (docs/protocol.md#data-and-code).
 """
 
 from __future__ import annotations
 
+import collections
 import hashlib
 import importlib.util
 import json
 import os
+import resource
+import signal
 import struct
 import subprocess
 import sys
 import tempfile
+import threading
 from collections.abc import Callable
 
 import numpy as np
@@ -143,16 +151,19 @@ class IsolatedPolicy:
 
     def __init__(self, path: str):
         self._folder = tempfile.TemporaryDirectory(prefix="policy-")
-        self._stderr = tempfile.TemporaryFile()
         environment = {k: os.environ[k] for k in _ENVIRONMENT if k in os.environ}
         self._process = subprocess.Popen(
             [sys.executable, "-B", "-E", "-s", "-c", _BOOT.format(root=_ROOT, path=path)],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
-            stderr=self._stderr,
+            stderr=subprocess.PIPE,  # drained by a thread: the child may write no file
             cwd=self._folder.name,
             env={**environment, **_THREADS},
+            start_new_session=True,  # its process group: `close` ends every process in it
         )
+        self._said = collections.deque(maxlen=64)  # the last chunks of its stderr
+        self._drain = threading.Thread(target=self._read_stderr, daemon=True)
+        self._drain.start()
         self._to, self._from = self._process.stdin.fileno(), self._process.stdout.fileno()
         self._in_trial = False
         kind, payload = self._answer()
@@ -167,8 +178,7 @@ class IsolatedPolicy:
             kind, payload = _FAIL, b""
         if kind != _OK:
             self.close()
-            self._stderr.seek(0)
-            lines = self._stderr.read().decode(errors="replace").strip().splitlines()
+            lines = b"".join(self._said).decode(errors="replace").strip().splitlines()
             said = payload.decode(errors="replace") or (lines[-1] if lines else "no answer")
             raise PolicyFailed(f"the policy's process failed: {said}")
         return kind, payload
@@ -209,12 +219,20 @@ class IsolatedPolicy:
         """The order the scorer runs n trials (or tiers) in: drawn afresh each time."""
         return np.random.default_rng().permutation(n)
 
+    def _read_stderr(self) -> None:
+        for chunk in iter(lambda: self._process.stderr.read1(4096), b""):
+            self._said.append(chunk)
+
     def close(self) -> None:
-        """Ends the policy's process."""
-        if self._process.poll() is None:
-            self._process.kill()
+        """Ends the policy's process and every process of its group (its trials, and what
+        it started without leaving the group)."""
+        try:
+            os.killpg(self._process.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
         self._process.wait()
-        for stream in (self._process.stdin, self._process.stdout):
+        self._drain.join(timeout=5)
+        for stream in (self._process.stdin, self._process.stdout, self._process.stderr):
             stream.close()
         self._folder.cleanup()
 
@@ -293,9 +311,20 @@ def load_policy_code(path: str) -> Callable[[dict], np.ndarray]:
     return policy
 
 
+def _write_nothing() -> None:
+    """From here on this process and its children write no byte to any file (a file size
+    limit of 0, which an unprivileged process cannot raise again; writing fails instead of
+    ending the process): the policy cannot change a run's files, the ledger or its card.
+    Pipes are no files: the answers still go out."""
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+
+
 def serve(path: str) -> None:
     """The policy's process (`IsolatedPolicy`): runs the file, then forks one trial process
-    per trial and waits for it."""
+    per trial and waits for it; nothing it runs writes to a file (`_write_nothing`)."""
+    _write_nothing()
     try:
         policy = load_policy_code(path)
     except BaseException as e:

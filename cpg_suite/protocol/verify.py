@@ -833,14 +833,28 @@ def seed_trials(
         return score.seed_trials(artifact, settings, choose(settings.tiers))
 
 
-def _check_run(run_dir: str, how: dict) -> list[str]:
-    """`verify_run` or, with `how["sample"]`, `sample_run` on trials drawn for this run."""
+def _check_run(run_dir: str, how: dict) -> tuple[list[str], str | None]:
+    """`verify_run` or, with `how["sample"]`, `sample_run` on trials drawn for this run;
+    with the digest of the run's files as they were checked (`admission.run_digest`, taken
+    before and compared after: a run whose files changed meanwhile, as a policy that is
+    code could change them, is not reproduced)."""
+    before = admission.run_digest(run_dir)
     if not how["sample"]:
-        return verify_run(run_dir, how["quick"], how["threads"], how["trust_code"], how["trusted"])
-    keys = [(t["tier"], t["seed"]) for t in read_trials(os.path.join(run_dir, "trials.csv"))]
-    name = "/".join(os.path.normpath(os.path.abspath(run_dir)).split(os.sep)[-3:])
-    chosen = sample.draw(keys, how["sample"], how["entropy"], name)
-    return sample_run(run_dir, chosen, how["threads"], how["trust_code"], how["trusted"])
+        problems = verify_run(
+            run_dir, how["quick"], how["threads"], how["trust_code"], how["trusted"]
+        )
+    else:
+        keys = [(t["tier"], t["seed"]) for t in read_trials(os.path.join(run_dir, "trials.csv"))]
+        name = "/".join(os.path.normpath(os.path.abspath(run_dir)).split(os.sep)[-3:])
+        chosen = sample.draw(keys, how["sample"], how["entropy"], name)
+        problems = sample_run(run_dir, chosen, how["threads"], how["trust_code"], how["trusted"])
+    try:
+        after = admission.run_digest(run_dir)
+    except (OSError, ValueError):
+        after = None  # a file gone or no longer readable
+    if after != before:
+        problems = [*problems, "its files changed while it was being checked"]
+    return problems, before
 
 
 def audit_run(run_dir: str, seeds: list[int], how: dict) -> tuple[dict, dict]:
@@ -929,6 +943,7 @@ def write_ledger(
     outcomes: dict[str, list[str]],
     sample_trials: int = 0,
     upgrade: tuple[int, int] | None = None,
+    digests: dict[str, str] | None = None,
 ) -> None:
     """Records the runs just checked in a ledger (`admission.LEDGER_FIELDS`), a row per
     run, replacing that run's earlier row: its files' digest, full or sampled, how many
@@ -943,6 +958,8 @@ def write_ledger(
         "upgrade <old>-><new>", its trials those of the old card, reproduced; the new card's
         other trials were scored for the first time, so it is no full re-score (the board
         counts only "full" rows).
+      digests: {run: the digest of its files as they were checked} (default: as they are
+        now); a row names the files its check read, so a run changed since is not on record.
     """
     ledger = admission.read_ledger(path)
     environment = runs.environment_record()
@@ -958,7 +975,7 @@ def write_ledger(
             trials = len(read_trials(os.path.join(run_dir, history_trials_file(upgrade[0]))))
         ledger[admission.run_key(run_dir)] = {
             "run": admission.run_key(run_dir),
-            "files_sha256": admission.run_digest(run_dir),
+            "files_sha256": (digests or {}).get(run_dir) or admission.run_digest(run_dir),
             "check": check,
             "trials": min(sample_trials, trials) if sample_trials else trials,
             "result": "differs" if problems else "reproduced",
@@ -1162,9 +1179,9 @@ def verify(
             if run_dir in refused:
                 log(f"REFUSED {run_dir}; {refused[run_dir]}")
                 continue
-            problems = outcome(run_dir)
+            problems, digest = outcome(run_dir)
             if record and jobs <= 1:  # as each run is done: a stop keeps what it checked
-                write_ledger(record, {run_dir: problems}, sample_trials)
+                write_ledger(record, {run_dir: problems}, sample_trials, digests={run_dir: digest})
             failed += bool(problems)
             log(f"{'DIFF' if problems else 'ok  '} {run_dir}" + "".join(f"; {p}" for p in problems))
     total = len(chosen) + len(refused)
@@ -1179,7 +1196,9 @@ def _record_as_done(record: str, futures: dict, sample_trials: int) -> None:
     run_of = {future: run_dir for run_dir, future in futures.items()}
     for done, future in enumerate(concurrent.futures.as_completed(run_of), 1):
         if future.exception() is None:
-            write_ledger(record, {run_of[future]: future.result()}, sample_trials)
+            problems, digest = future.result()
+            run_dir = run_of[future]
+            write_ledger(record, {run_dir: problems}, sample_trials, digests={run_dir: digest})
             progress.write(f"recorded {done} of {len(run_of)}: {run_of[future]}")
 
 
