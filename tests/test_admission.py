@@ -388,9 +388,23 @@ FORGERIES = {
         lambda run: _edit_json(run / "summary.json", lambda s: s.update(env_steps=0)),
         "summary.json claims env_steps, a learner's budget, but config.json sets no total_steps",
     ),
+    "budget_both_kinds": (  # a population's run claiming a learner's budget too
+        lambda run: (
+            _edit_json(run / "config.json", lambda c: c["settings"].update(total_steps=1)),
+            _edit_json(run / "summary.json", lambda s: s.update(env_steps=1)),
+        ),
+        "config.json sets both a population's rounds and a learner's total_steps",
+    ),
     "validation_steps_not_a_count": (
         lambda run: _edit_json(run / "summary.json", lambda s: s.update(validation_sim_steps="x")),
         "summary.json's validation_sim_steps is 'x', not a count",
+    ),
+    "code_nested_deeply": (  # `ast.parse` of a flat sum of 100,000 terms recurses
+        lambda run: (
+            os.remove(run / "selected_params.json"),
+            (run / "policy_code.py").write_text("x = " + "+".join(["1"] * 100_000) + "\n"),
+        ),
+        "unreadable gait or policy (ValueError: policy_code.py is nested too deeply to parse)",
     ),
     "seed_left_out": (
         lambda run: _edit_json(run / "config.json", lambda c: c["settings"].pop("seed")),

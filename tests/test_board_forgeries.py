@@ -160,6 +160,27 @@ def test_a_gait_with_one_amplitude_moved_up_to_two_percent_is_the_same_gait(tmp_
     )
 
 
+def test_a_policy_resaved_in_other_widths_or_with_a_zero_array_nudged_is_the_same(tmp_path):
+    """A fourth reader's variants: float32 arrays saved as float64, and an all-zero array
+    (the observation mean) nudged by 1e-9: the same policy as values."""
+    source = os.path.join(RUNS, "ppo_mjx", "darwin_walk", "joints_seed1")
+    name = ("selected_policy.npz",)
+    with np.load(os.path.join(source, name[0])) as data:
+        arrays = {k: data[k] for k in data.files}
+    (tmp_path / "wide").mkdir()
+    np.savez(
+        tmp_path / "wide" / name[0],
+        **{k: v.astype(np.float64) if v.dtype.kind == "f" else v for k, v in arrays.items()},
+    )
+    (tmp_path / "nudged").mkdir()
+    nudged = dict(arrays, mean=arrays["mean"] + 1e-9)
+    np.savez(tmp_path / "nudged" / name[0], **nudged)
+    original = copies.fingerprint(source, name, [])
+    for variant in ("wide", "nudged"):
+        assert copies.same_artifact(copies.fingerprint(str(tmp_path / variant), name, []), original)
+    assert copies.value_distance((np.array([np.inf, 1.0]),), (np.array([np.inf, 1.0]),)) == 0.0
+
+
 def test_an_exported_policy_resaved_and_a_commented_code_file_are_copies(tmp_path):
     runs = tmp_path / "runs"
     _copy(runs, "cpg_seed0", source=EXPORTED_RUN, method="ppo_mjx")

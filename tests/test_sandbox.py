@@ -340,3 +340,28 @@ def test_verify_records_no_run_whose_files_changed_while_it_was_checked(tmp_path
     problems, digest = verify._check_run(str(run), how)
     assert problems[-1] == "its files changed while it was being checked"
     assert digest == before
+
+
+ESCAPER = """
+import os
+import time
+
+import numpy as np
+
+
+def make_policy():
+    if os.fork() == 0:
+        os.setsid()  # out of the policy's process group: `close` cannot end it
+        if os.fork() == 0:
+            time.sleep(30)  # holding the stderr it inherited
+        os._exit(0)
+    return lambda observation: np.zeros(12)
+"""
+
+
+def test_a_process_that_left_the_group_does_not_hold_close_up(tmp_path):
+    policy = sandbox.IsolatedPolicy(_write(tmp_path, "policy_code.py", ESCAPER))
+    policy({"x": np.zeros(2)})
+    start = time.monotonic()
+    policy.close()
+    assert time.monotonic() - start < 15

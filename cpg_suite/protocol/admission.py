@@ -526,6 +526,8 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
             "summary.json claims env_steps, a learner's budget, but config.json sets no total_steps"
         )
     given = {k: settings[k] for k in ("population", "rounds", "eval_seeds") if k in settings}
+    if ("population" in given or "rounds" in given) and "total_steps" in settings:
+        return "config.json sets both a population's rounds and a learner's total_steps"
     if "population" in given or "rounds" in given:
         given.setdefault("eval_seeds", 1)
         if not all(_count(g) and g > 0 for g in given.values()) or len(given) != 3:

@@ -9,7 +9,7 @@ A run's fingerprint holds
 * its gait or policy as parsed values: a gait's amplitudes and feedback gains (absent
   gains are 0, as `feedback.load_params` reads them), an exported policy's arrays or an
   action table (NumPy, read without unpickling), each array within `VALUE_RTOL` of its
-  largest value (`value_distance`); a policy's
+  largest value or its artifact's median array's (`value_distance`); a policy's
   Python file as its syntax tree (comments and layout aside; parsed, never run); a
   Stable-Baselines3 model's zip members and normalizer as bytes (reading them as values
   would unpickle them).
@@ -43,8 +43,8 @@ from cpg_suite.protocol import files as run_files
 # a float printed with fewer digits differs by < 1e-15 m; a forger nudging every trial by
 # more than this moves the card by as much, and meets `verify --sample`).
 TRIAL_TOLERANCE_M = 1e-3
-# Relative to an array's largest magnitude: two gaits or policies each of whose arrays
-# differ by at most this share of its largest value are one (a choice: the closest two
+# Relative to an array's largest magnitude (or its artifact's median array's): two gaits
+# or policies each of whose arrays differ by at most this share are one (a choice: the closest two
 # shipped runs of one trained version differ by 11.5 % of their amplitudes' largest, CEM
 # seeds 0 and 4, so honest seeds lie 5.7 times above; a gait nudged by less, each nudge
 # scored again as a seed, is the same gait).
@@ -86,8 +86,8 @@ def _arrays(named: dict) -> tuple[tuple, tuple]:
     names = sorted(named)
     arrays = [np.asarray(named[n]) for n in names]
     numeric = [a.dtype.kind in "biuf" for a in arrays]
-    structure = tuple(
-        (n, a.shape, a.dtype.str, None if is_number else a.tolist())
+    structure = tuple(  # a number's kind, not its width: float32 and float64 are values alike
+        (n, a.shape, a.dtype.kind if is_number else a.dtype.str, None if is_number else a.tolist())
         for n, a, is_number in zip(names, arrays, numeric)
     )
     values = tuple(a.astype(np.float64).ravel() for a, ok in zip(arrays, numeric) if ok)
@@ -116,8 +116,11 @@ def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple 
     if name.endswith(".npy"):
         return (*_arrays({"actions": np.load(path, allow_pickle=False)}), None)
     if name.endswith(".py"):
-        with open(path, encoding="utf-8") as f:
-            tree = ast.dump(ast.parse(f.read()), annotate_fields=False)
+        source = run_files.read_text(path)  # a regular file of bounded size
+        try:
+            tree = ast.dump(ast.parse(source), annotate_fields=False)
+        except (RecursionError, MemoryError):
+            raise ValueError(f"{name} is nested too deeply to parse") from None
         return ("python",), None, _sha256(tree.encode())
     parts = []
     for file_name in files:  # an SB3 model (zip) and its normalizer (pickle)
@@ -172,26 +175,37 @@ def same_artifact(a: Fingerprint, b: Fingerprint) -> bool:
         return False
     if a.values is None:
         return True
-    return all(value_distance(x, y) <= VALUE_RTOL for x, y in zip(a.values, b.values))
+    return value_distance(a.values, b.values) <= VALUE_RTOL
 
 
-def value_distance(x: np.ndarray, y: np.ndarray) -> float:
-    """How far apart two arrays of one shape are: their largest difference over the larger
-    of their largest magnitudes (0 for equal arrays, NaN where both are NaN counting as
-    equal; inf where only one is NaN).
+def value_distance(xs: tuple, ys: tuple) -> float:
+    """How far apart two artifacts' values are (arrays of one structure): the largest over
+    their arrays of the array's largest difference over its largest finite magnitude, or
+    over the median of the artifact's arrays' magnitudes if that is larger (an all-zero
+    bias is measured against the arrays beside it, not against itself). Equal elements (NaN
+    or infinities included) differ by 0; a NaN or infinity against another value by inf.
 
     Args:
-      x, y: Float arrays of one shape.
+      xs, ys: Float arrays, pairwise of one shape.
     """
-    nan_x, nan_y = np.isnan(x), np.isnan(y)
-    if not np.array_equal(nan_x, nan_y):
-        return float("inf")
-    x, y = x[~nan_x], y[~nan_y]
-    if not x.size:
-        return 0.0
-    scale = max(float(np.max(np.abs(x))), float(np.max(np.abs(y))))
-    difference = float(np.max(np.abs(x - y)))
-    return 0.0 if difference <= VALUE_ATOL else difference / max(scale, VALUE_ATOL)
+    scales, differences = [], []
+    for x, y in zip(xs, ys):
+        same = (x == y) | (np.isnan(x) & np.isnan(y))
+        finite = np.isfinite(x) & np.isfinite(y)
+        if np.any(~same & ~finite):
+            return float("inf")
+        magnitude = np.abs(np.where(finite, x, 0.0)), np.abs(np.where(finite, y, 0.0))
+        scales.append(max((float(np.max(m)) for m in magnitude if m.size), default=0.0))
+        differences.append(float(np.max(np.where(same, 0.0, np.abs(x - y)), initial=0.0)))
+    floor = float(np.median(scales)) if scales else 0.0
+    return (
+        max(
+            (0.0 if d <= VALUE_ATOL else d / max(scale, floor, VALUE_ATOL))
+            for d, scale in zip(differences, scales)
+        )
+        if scales
+        else 0.0
+    )
 
 
 def copy_of(later: Fingerprint, earlier: Fingerprint) -> str | None:
@@ -216,9 +230,8 @@ def started(run_dir: str) -> str:
 
 def closest_pairs(prints: dict[str, Fingerprint]) -> tuple[float, float]:
     """The smallest trial-table and gait-or-policy distance between two runs of `prints`
-    (max absolute distance difference over trials with equal outcomes, m; `value_distance`'s
-    largest over the arrays of two artifacts of one structure): how far the tolerances lie
-    from honest runs.
+    (max absolute distance difference over trials with equal outcomes, m; `value_distance`
+    between two artifacts of one structure): how far the tolerances lie from honest runs.
 
     Returns:
       `(trials_m, values_rel)`; inf where no two runs are comparable.
@@ -230,6 +243,5 @@ def closest_pairs(prints: dict[str, Fingerprint]) -> tuple[float, float]:
             if a.outcomes == b.outcomes:
                 trials_m = min(trials_m, float(np.max(np.abs(a.distances - b.distances))))
             if a.values is not None and (a.kind, a.structure) == (b.kind, b.structure):
-                rel = max(value_distance(x, y) for x, y in zip(a.values, b.values))
-                values_rel = min(values_rel, rel)
+                values_rel = min(values_rel, value_distance(a.values, b.values))
     return trials_m, values_rel

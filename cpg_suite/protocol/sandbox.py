@@ -220,7 +220,10 @@ class IsolatedPolicy:
         return np.random.default_rng().permutation(n)
 
     def _read_stderr(self) -> None:
-        for chunk in iter(lambda: self._process.stderr.read1(4096), b""):
+        # `os.read` on the descriptor: a process that left the group may hold the pipe open
+        # for ever, and this thread then never returns; it holds no lock `close` needs.
+        fd = self._process.stderr.fileno()
+        for chunk in iter(lambda: os.read(fd, 4096), b""):
             self._said.append(chunk)
 
     def close(self) -> None:
@@ -232,7 +235,10 @@ class IsolatedPolicy:
             pass
         self._process.wait()
         self._drain.join(timeout=5)
-        for stream in (self._process.stdin, self._process.stdout, self._process.stderr):
+        streams = [self._process.stdin, self._process.stdout]
+        if not self._drain.is_alive():  # else a process outside the group holds its stderr:
+            streams.append(self._process.stderr)  # left open (closing it under a blocked
+        for stream in streams:  # reader would let the descriptor be reused under it)
             stream.close()
         self._folder.cleanup()
 
