@@ -161,8 +161,9 @@ def test_a_gait_with_one_amplitude_moved_up_to_two_percent_is_the_same_gait(tmp_
 
 
 def test_a_policy_resaved_in_other_widths_or_with_a_zero_array_nudged_is_the_same(tmp_path):
-    """A fourth reader's variants: float32 arrays saved as float64, and an all-zero array
-    (the observation mean) nudged by 1e-9: the same policy as values."""
+    """A fourth reader's variants: float32 arrays saved as float64, an all-zero array (the
+    observation mean) nudged by 1e-9, an unused array and a default spelled out: the same
+    policy as values."""
     source = os.path.join(RUNS, "ppo_mjx", "darwin_walk", "joints_seed1")
     name = ("selected_policy.npz",)
     with np.load(os.path.join(source, name[0])) as data:
@@ -175,8 +176,11 @@ def test_a_policy_resaved_in_other_widths_or_with_a_zero_array_nudged_is_the_sam
     (tmp_path / "nudged").mkdir()
     nudged = dict(arrays, mean=arrays["mean"] + 1e-9)
     np.savez(tmp_path / "nudged" / name[0], **nudged)
+    (tmp_path / "padded").mkdir()  # an array the scorer never reads, a default spelled out
+    padded = dict(arrays, note=np.arange(3.0), activation=np.array("swish"))
+    np.savez(tmp_path / "padded" / name[0], **padded)
     original = copies.fingerprint(source, name, [])
-    for variant in ("wide", "nudged"):
+    for variant in ("wide", "nudged", "padded"):
         assert copies.same_artifact(copies.fingerprint(str(tmp_path / variant), name, []), original)
     assert copies.value_distance((np.array([np.inf, 1.0]),), (np.array([np.inf, 1.0]),)) == 0.0
 

@@ -7,7 +7,8 @@ A run's fingerprint holds
   control step and cause of the failure (equal), and the distance walked (equal within
   `TRIAL_TOLERANCE_M`);
 * its gait or policy as parsed values: a gait's amplitudes and feedback gains (absent
-  gains are 0, as `feedback.load_params` reads them), an exported policy's arrays or an
+  gains are 0, as `feedback.load_params` reads them), an exported policy's arrays (as the
+  scorer reads them: an unused array or a default spelled out is none of it) or an
   action table (NumPy, read without unpickling), each array within `VALUE_RTOL` of its
   largest value or its artifact's median array's (`value_distance`); a policy's
   Python file as its syntax tree (comments and layout aside; parsed, never run); a
@@ -37,6 +38,7 @@ import numpy as np
 
 from cpg_suite import feedback
 from cpg_suite.protocol import files as run_files
+from cpg_suite.runfiles import exported
 
 # m: two trial tables whose outcomes are equal and whose distances all lie this close are
 # one run's (a choice: the closest two shipped tables with equal outcomes differ by 4.1 m;
@@ -111,8 +113,10 @@ def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple 
         return (*_arrays({"params": feedback.load_params(path)}), None)
     if name.endswith(".npz"):
         _require_bounded_zip(path)  # each array unpacks to at most a run file's size
-        with np.load(path, allow_pickle=False) as data:
-            return (*_arrays({k: data[k] for k in data.files}), None)
+        # As the scorer reads it: what it does not read (an extra array, a default spelled
+        # out) is no part of the policy.
+        policy = exported.NumpyPolicy.load(path)
+        return (*_arrays({**policy.arrays(), "action_space": policy.action_space}), None)
     if name.endswith(".npy"):
         return (*_arrays({"actions": np.load(path, allow_pickle=False)}), None)
     if name.endswith(".py"):
