@@ -10,7 +10,7 @@ the training tier, its observations and rewards normalized by SB3's `VecNormaliz
 
 * `joints`: the policy outputs the 12 normalized leg joint targets;
 * `cpg`: the policy modulates the study's CPG every control step
-  (`cpg_suite.residual.CPGActions`): 11 amplitude corrections (± `amplitude_scale`
+  (`cpg_suite.vector.CPGActions`): 11 amplitude corrections (± `amplitude_scale`
   degrees around the hand-tuned amplitudes) and one phase-rate correction
   (ω (1 ± `rate_scale`)); action 0 is the hand-tuned open-loop gait. The policy also
   sees the CPG phase (cos φ_L, sin φ_L).

@@ -14,17 +14,16 @@ targets of `cpg.CPG(hand_tuned)` bit for bit (`tests/test_ppo.py`).
 
 `ModulatedCPG` is a `cpg.CPG` with one row per sub-environment, each with its own time and
 phase, so a row restarts (`reset_rows`) when its episode ends. `CPGActions` is the action
-space as a Gymnasium vector wrapper over `cpg_suite.vector.DarwinVectorEnv` (same-step
-autoreset): it maps the policy's actions to joint-target actions and adds the left leg's
-phase (cos φ_L, sin φ_L) to the observations as `"cpg_phase"`.
+space as a Gymnasium vector wrapper over `DarwinVectorEnv` (same-step autoreset), in
+`cpg_suite.vector` with the other Gymnasium classes (scoring a policy of this action
+space needs `ModulatedCPG` only, not Gymnasium): it maps the policy's actions to
+joint-target actions and adds the left leg's phase (cos φ_L, sin φ_L) to the observations
+as `"cpg_phase"`.
 """
 
 from __future__ import annotations
 
-import gymnasium
 import numpy as np
-from gymnasium.vector import AutoresetMode
-from gymnasium.vector.utils import batch_space
 
 from cpg_suite import cli, cpg, darwin, portable
 
@@ -155,83 +154,6 @@ class ModulatedCPG(cpg.CPG):
             self.z = self._offsets + (self.z - self._offsets) * decay + gain * rates[k]
         self.time, self.delta = times[n], deltas[n]
         return cpg.to_joint_angles(self.z)
-
-
-class CPGActions(gymnasium.vector.VectorWrapper):
-    """The CPG action space over a `DarwinVectorEnv` in same-step autoreset mode.
-
-    Each step: the policy's (N, 12) actions modulate the CPG rows (`ModulatedCPG.modulate`),
-    the CPG advances one control step, and its joint targets become the environment's
-    normalized actions. Rows whose episode ended restart with their sub-environment. The
-    observations gain `"cpg_phase"` (cos φ_L, sin φ_L), also in `infos["final_obs"]`.
-    """
-
-    def __init__(
-        self,
-        env: gymnasium.vector.VectorEnv,
-        *,
-        amplitudes="hand_tuned",
-        amplitude_scale: float = AMPLITUDE_SCALE,
-        rate_scale: float = RATE_SCALE,
-        config: cpg.CPGConfig | None = None,
-    ):
-        """Args:
-          env: A `DarwinVectorEnv` (or a wrapper of one) with `AutoresetMode.SAME_STEP`.
-          amplitudes, amplitude_scale, rate_scale, config: As for `ModulatedCPG`.
-
-        Raises:
-          ValueError: On another autoreset mode, or bad CPG arguments.
-        """
-        super().__init__(env)
-        if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
-            raise ValueError("CPGActions needs a vector env with AutoresetMode.SAME_STEP")
-        self.cpg = ModulatedCPG(
-            env.num_envs,
-            amplitudes,
-            config,
-            amplitude_scale=amplitude_scale,
-            rate_scale=rate_scale,
-        )
-        self._physics = env.unwrapped.envs[0].physics  # for `targets_to_action`
-        self._dt = float(env.unwrapped.envs[0].control_timestep())
-        self.single_action_space = gymnasium.spaces.Box(-1.0, 1.0, (N_ACTIONS,), np.float64)
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        spaces = dict(env.single_observation_space.spaces)
-        spaces[PHASE_KEY] = gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float64)
-        self.single_observation_space = gymnasium.spaces.Dict(spaces)
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-
-    def reset(self, *, seed=None, options=None):
-        observations, infos = self.env.reset(seed=seed, options=options)
-        mask = np.ones(self.num_envs, dtype=bool)
-        if options and "reset_mask" in options:
-            mask = np.asarray(options["reset_mask"], dtype=bool)
-        self.cpg.reset_rows(mask)
-        return self._with_phase(observations), infos
-
-    def step(self, actions):
-        a = np.asarray(actions, dtype=np.float64)
-        if a.shape != (self.num_envs, N_ACTIONS) or not np.isfinite(a).all():
-            raise ValueError(
-                f"actions must be finite with shape ({self.num_envs}, {N_ACTIONS}), got {a.shape}"
-            )
-        self.cpg.modulate(a)
-        targets = self.cpg.step(self._dt)
-        joint_actions = self._physics.targets_to_action(targets)
-        observations, rewards, terminated, truncated, infos = self.env.step(joint_actions)
-        done = np.asarray(terminated) | np.asarray(truncated)
-        if done.any():
-            features = self.cpg.phase_features()
-            if "final_obs" in infos:
-                final = infos["final_obs"].copy()
-                for i in np.flatnonzero(done):
-                    final[i] = {**final[i], PHASE_KEY: features[i].copy()}
-                infos = {**infos, "final_obs": final}
-            self.cpg.reset_rows(done)
-        return self._with_phase(observations), rewards, terminated, truncated, infos
-
-    def _with_phase(self, observations: dict) -> dict:
-        return {**observations, PHASE_KEY: self.cpg.phase_features()}
 
 
 def batch_features(observations: dict, keys: tuple[str, ...], rows: ModulatedCPG | None):

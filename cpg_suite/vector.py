@@ -43,7 +43,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 import cpg_suite
-from cpg_suite import base, cpg, darwin, electrical, perturbations
+from cpg_suite import base, cpg, darwin, electrical, perturbations, residual
 from cpg_suite.darwin import recording as darwin_recording
 
 WALK_TASKS = tuple(t for t in cpg_suite.TASK_IDS if t.startswith("darwin_walk"))
@@ -374,6 +374,86 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             "foot_touch": sensors[:, s["foot_touch"]].copy(),
         }
         return {key: observations[key] for key in self.single_observation_space}
+
+
+class CPGActions(gymnasium.vector.VectorWrapper):
+    """The CPG action space over a `DarwinVectorEnv` in same-step autoreset mode.
+
+    Each step: the policy's (N, 12) actions modulate the CPG rows (`ModulatedCPG.modulate`),
+    the CPG advances one control step, and its joint targets become the environment's
+    normalized actions. Rows whose episode ended restart with their sub-environment. The
+    observations gain `"cpg_phase"` (cos φ_L, sin φ_L), also in `infos["final_obs"]`.
+    """
+
+    def __init__(
+        self,
+        env: gymnasium.vector.VectorEnv,
+        *,
+        amplitudes="hand_tuned",
+        amplitude_scale: float = residual.AMPLITUDE_SCALE,
+        rate_scale: float = residual.RATE_SCALE,
+        config: cpg.CPGConfig | None = None,
+    ):
+        """Args:
+          env: A `DarwinVectorEnv` (or a wrapper of one) with `AutoresetMode.SAME_STEP`.
+          amplitudes, amplitude_scale, rate_scale, config: As for `ModulatedCPG`.
+
+        Raises:
+          ValueError: On another autoreset mode, or bad CPG arguments.
+        """
+        super().__init__(env)
+        if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
+            raise ValueError("CPGActions needs a vector env with AutoresetMode.SAME_STEP")
+        self.cpg = residual.ModulatedCPG(
+            env.num_envs,
+            amplitudes,
+            config,
+            amplitude_scale=amplitude_scale,
+            rate_scale=rate_scale,
+        )
+        self._physics = env.unwrapped.envs[0].physics  # for `targets_to_action`
+        self._dt = float(env.unwrapped.envs[0].control_timestep())
+        self.single_action_space = gymnasium.spaces.Box(
+            -1.0, 1.0, (residual.N_ACTIONS,), np.float64
+        )
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        spaces = dict(env.single_observation_space.spaces)
+        spaces[residual.PHASE_KEY] = gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float64)
+        self.single_observation_space = gymnasium.spaces.Dict(spaces)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+
+    def reset(self, *, seed=None, options=None):
+        observations, infos = self.env.reset(seed=seed, options=options)
+        mask = np.ones(self.num_envs, dtype=bool)
+        if options and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=bool)
+        self.cpg.reset_rows(mask)
+        return self._with_phase(observations), infos
+
+    def step(self, actions):
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != (self.num_envs, residual.N_ACTIONS) or not np.isfinite(a).all():
+            raise ValueError(
+                f"actions must be finite with shape ({self.num_envs}, {residual.N_ACTIONS}), "
+                f"got {a.shape}"
+            )
+        self.cpg.modulate(a)
+        targets = self.cpg.step(self._dt)
+        joint_actions = self._physics.targets_to_action(targets)
+        observations, rewards, terminated, truncated, infos = self.env.step(joint_actions)
+        done = np.asarray(terminated) | np.asarray(truncated)
+        if done.any():
+            features = self.cpg.phase_features()
+            if "final_obs" in infos:
+                final = infos["final_obs"].copy()
+                for i in np.flatnonzero(done):
+                    final[i] = {**final[i], residual.PHASE_KEY: features[i].copy()}
+                infos = {**infos, "final_obs": final}
+            self.cpg.reset_rows(done)
+        return self._with_phase(observations), rewards, terminated, truncated, infos
+
+    def _with_phase(self, observations: dict) -> dict:
+        return {**observations, residual.PHASE_KEY: self.cpg.phase_features()}
 
 
 def _seeds(seed, n: int) -> list:

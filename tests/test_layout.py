@@ -208,3 +208,23 @@ def test_short_public_names_are_the_benchmark_objects():
         module, _, attribute = target.partition(":")
         assert getattr(cpg_suite, name) is getattr(importlib.import_module(module), attribute)
         assert name in dir(cpg_suite)
+
+
+def test_the_protocol_and_the_board_import_without_gymnasium():
+    """Scoring, verifying, submitting and the board need no Gymnasium (its classes live in
+    `cpg_suite.gym` and `cpg_suite.vector`): they import with it blocked."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "class Block:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] == 'gymnasium':\n"
+        "            raise ImportError('blocked')\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "import cpg_suite.protocol.verify, cpg_suite.protocol.submit, analysis.leaderboard\n"
+        "from cpg_suite.runfiles import exported\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
+    assert done.returncode == 0, done.stderr[-1000:]

@@ -8,7 +8,7 @@ policy of every SB3 run under FOLDER as data, `selected_policy.npz` beside its p
 * `make_vector_env`: the (dict-observation) vector env a policy acts in,
   `cpg_suite.vector.DarwinVectorEnv` with same-step autoreset, in one of two action spaces:
   `joints` (the 12 normalized leg joint targets) or `cpg` (the policy modulates the study's
-  CPG every control step, `cpg_suite.residual.CPGActions`, and also sees its phase).
+  CPG every control step, `cpg_suite.vector.CPGActions`, and also sees its phase).
 * `FlatVecEnv`: that env as an SB3 `VecEnv`, the observation dict flattened in the fixed
   order `OBS_KEYS` (then the CPG phase); `normalized` wraps it in SB3's `VecNormalize`.
 * `predict`: torch's deterministic actions (training's validation).
@@ -73,7 +73,7 @@ def make_vector_env(
         supply=protocol.supply_limit(settings.benchmark_version),
     )
     if settings.action_space == "cpg":
-        env = residual.CPGActions(
+        env = vector.CPGActions(
             env, amplitude_scale=settings.amplitude_scale, rate_scale=settings.rate_scale
         )
     return env

@@ -135,6 +135,6 @@ def _smoothstep(x: jax.Array) -> jax.Array:
 
 
 def phase_features(state: CPGState, config: cpg.CPGConfig) -> jax.Array:
-    """(2,) cos φ_L, sin φ_L: the `cpg_phase` observation of `residual.CPGActions`."""
+    """(2,) cos φ_L, sin φ_L: the `cpg_phase` observation of `vector.CPGActions`."""
     phi = config.initial_phase + config.omega * state.time + state.delta
     return jnp.stack([jnp.cos(phi), jnp.sin(phi)])

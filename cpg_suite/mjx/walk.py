@@ -521,7 +521,7 @@ class WalkEnv:
             row, targets = modulated.step(
                 row, action, self.nominal_amplitudes, darwin.CONTROL_TIMESTEP, self.config
             )
-            action = self.targets_to_action(targets)  # as `residual.CPGActions` does
+            action = self.targets_to_action(targets)  # as `vector.CPGActions` does
         model = self.episode_model(state.params, state.invweights)
         data = state.data
         ctrl = data.ctrl.at[self._leg_act].set(self.action_to_targets(action))
