@@ -194,9 +194,9 @@ def feedback_evaluator(steps: int, threads: int, repeats: int, now) -> tuple[flo
         ours = _best(run, repeats, now)
         step_trial, given = ev._step_trial, {}
 
-        def recording(trial, ctrl, t, quality):  # the controls each trial was given
+        def recording(trial, ctrl, t):  # the controls each trial was given
             given.setdefault(id(trial), (trial, []))[1].append(np.array(ctrl))
-            step_trial(trial, ctrl, t, quality)
+            step_trial(trial, ctrl, t)
 
         ev._step_trial = recording
         ev.evaluate(params, _FEEDBACK_SEEDS)

@@ -206,4 +206,4 @@ def clear_invalid_state_warnings(data: mujoco.MjData) -> None:
 
 def invalid_state(data: mujoco.MjData) -> bool:
     """Whether the step raised a warning after which dm_control raises `PhysicsError`."""
-    return bool(data.warning.number[_INVALID_STATE_WARNINGS].any())
+    return bool(np.count_nonzero(data.warning.number[_INVALID_STATE_WARNINGS]))

@@ -282,6 +282,13 @@ _JOINT_TERMS = np.array(
     ]
 )
 ROLL_JOINTS = np.array([HROLL, AROLL, 6 + HROLL, 6 + AROLL])  # the DMP term's joints
+# The same sums entry by entry (`_combine_by_entry`): each joint's entries, its value's
+# column in `primitive_values` flattened per row (leg · 3 + value), and the size of
+# `values` from which that is the faster way (NumPy calls on whole blocks of rows, where
+# the gather costs per element).
+_JOINT_ENTRIES = [[e for e in row if e < 2 * len(_BASIS_ENTRIES)] for row in _JOINT_TERMS.tolist()]
+_ENTRY_COLUMNS = (3 * _ENTRY_LEGS + _ENTRY_VALUES).tolist()
+_BY_ENTRY_FROM = 2000
 
 
 def primitive_values(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray:
@@ -305,16 +312,30 @@ def primitive_values(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray
 def _values_and_sin(phases, omega, config: CPGConfig) -> tuple[np.ndarray, np.ndarray]:
     """`primitive_values` and sin φ."""
     phases = np.asarray(phases, dtype=np.float64)
+    sin_phi, cos_phi = portable.sincos(phases)
+    return values_from(phases, sin_phi, cos_phi, omega, config), sin_phi
+
+
+def values_from(phases, sin_phi, cos_phi, omega, config: CPGConfig) -> np.ndarray:
+    """`primitive_values` from the phases and their sines and cosines (`portable.sincos`).
+
+    Args:
+      phases, sin_phi, cos_phi: (..., 2) float64 arrays: φ, sin φ, cos φ.
+      omega: φ̇, rad/s: a number, or one per row of `phases` (shape (...)).
+      config: The CPG configuration (flexion form, σ).
+
+    Returns:
+      Array (..., 2, 3), as `primitive_values`.
+    """
     omega = np.asarray(omega, dtype=np.float64)[..., None]  # against the legs' axis
     s2 = config.sigma**2
-    sin_phi, cos_phi = portable.sincos(phases)
     wrapped = wrap_phase(phases)
     gauss = portable.exp(-wrapped * wrapped / (2.0 * s2))
     if config.flexion_form == "gaussian_derivative":
         bump = -omega * wrapped / s2 * gauss  # d/dt of exp(-φ̄²/2σ²)
     else:
         bump = omega / s2 * gauss  # As printed (no φ̄ factor).
-    return np.stack([omega * sin_phi, omega * cos_phi, bump], axis=-1), sin_phi
+    return np.stack([omega * sin_phi, omega * cos_phi, bump], axis=-1)
 
 
 def primitive_basis(phases: np.ndarray, omega, config: CPGConfig) -> np.ndarray:
@@ -354,10 +375,32 @@ def combine(amplitudes: np.ndarray, values: np.ndarray) -> np.ndarray:
     Returns:
       (..., K, 12) rates of the anatomical variables, degrees/s.
     """
+    values = np.asarray(values, dtype=np.float64)
+    if values.size >= _BY_ENTRY_FROM:
+        return _combine_by_entry(amplitudes, values)
     terms = amplitudes[:, _ENTRY_AMPLITUDES] * _entries(values)  # (..., K, 22)
     zero = np.zeros(terms.shape[:-1] + (1,))
     terms = np.concatenate([terms, zero], axis=-1)[..., _JOINT_TERMS]  # (..., 12, 4)
     return ((terms[..., 0] + terms[..., 1]) + terms[..., 2]) + terms[..., 3]
+
+
+def _combine_by_entry(amplitudes: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """`combine` joint by joint, each term over all rows at once (many rows: the feedback
+    CPG's substeps × trials). The same operations on the same numbers, so the same bits:
+    Aₚ·(±v) = (±Aₚ)·v exactly (IEEE products round symmetrically), the terms added in the
+    same order, and `+ 0.0` where `combine` adds its zero padding (it turns −0 into +0)."""
+    k = len(amplitudes)
+    columns = np.moveaxis(values.reshape(values.shape[:-2] + (6,)), -1, 0)
+    signed = (amplitudes[:, _ENTRY_AMPLITUDES] * _ENTRY_SIGNS).T.copy()  # (22, K)
+    shape = np.broadcast_shapes(values.shape[:-2], (k,))
+    joints = []
+    for entries in _JOINT_ENTRIES:
+        total = np.zeros(shape)
+        for i, e in enumerate(entries):
+            term = signed[e] * columns[_ENTRY_COLUMNS[e]]
+            total = term if i == 0 else total + term
+        joints.append(total + 0.0 if len(entries) < 4 else total)
+    return np.stack(joints, axis=-1)
 
 
 class CPG:

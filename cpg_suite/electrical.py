@@ -293,12 +293,15 @@ class SupplyMonitor:
         """Adds the next physics steps' supply currents.
 
         Args:
-          currents: (n,) supply currents of the next n physics steps, A.
+          currents: (n,) supply currents of the next n physics steps, A (an array, or a
+            list of Python floats).
 
         Returns:
           The 1-based index (among these n) of the first step whose window mean exceeds the
           limit, or 0. After a brown-out the monitor keeps measuring but reports no other.
         """
+        if isinstance(currents, list):  # Python numbers, as `tolist` gives them
+            return self._add(currents)
         return self._add(np.asarray(currents, dtype=np.float64).tolist())
 
     def update_sums(self, sums: np.ndarray) -> int:

@@ -38,6 +38,7 @@ the `N_GAINS` gains (`GAIN_NAMES`). With every gain 0 the targets equal the open
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 
@@ -178,7 +179,38 @@ class FeedbackCPG(cpg.CPG):
             self.inputs = np.broadcast_to(
                 np.asarray(inputs, dtype=np.float64), self.inputs.shape
             ).copy()
-        return super().step(dt)
+        n, h, decay, gain = self._substeps(dt)
+        mid = []  # each substep's mid-time, accumulated as `cpg.CPG.step` does
+        for _ in range(n):
+            mid.append(self.time + 0.5 * h)
+            self.time += h
+        phases, sin_phi, cos_phi = self._phase_path(mid, h)
+        values = cpg.values_from(phases, sin_phi, cos_phi, self._omega(), self.config)
+        rates = self._rates_from(values, np.array(mid)[:, None])  # (n, K, 12)
+        increments = gain * rates
+        z, offsets = self.z, self._offsets
+        for i in range(n):
+            z = offsets + (z - offsets) * decay + increments[i]
+        self.z = z
+        targets = cpg.to_joint_angles(self._anatomical_targets())
+        return targets[0] if self._single else targets
+
+    def _phase_path(self, mid: list[float], h: float) -> tuple[np.ndarray, ...]:
+        """The phases at the substeps' mid-times and their sines and cosines, (n, K, 2)
+        each, with δ advanced over the substeps (`_advance_phases`, one substep at a time:
+        each substep's δ depends on the last one's sin φ)."""
+        start, omega = self.config.initial_phase, self.config.omega
+        shape = (len(mid),) + self.delta.shape
+        phases, sin_phi, cos_phi = np.empty(shape), np.empty(shape), np.empty(shape)
+        rate = h * self.gains[:, 10, None] * self.inputs[:, 4:6]  # `_advance_phases`' factor
+        delta = self.delta
+        for i, t in enumerate(mid):
+            left = start + omega * t  # `phases(t)`
+            np.add(np.array([left, left - math.pi]), delta, out=phases[i])
+            sin_phi[i], cos_phi[i] = portable.sincos(phases[i])
+            delta = delta + rate * sin_phi[i]
+        self.delta, self._sin_phi = delta, sin_phi[-1]
+        return phases, sin_phi, cos_phi
 
 
 def start_params(amplitudes) -> np.ndarray:

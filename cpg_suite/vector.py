@@ -317,8 +317,9 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             self._step_force, self._step_qvel, self._dof_damping, self._servo_index
         )
         currents = meter.currents(sums)
+        rows = currents.tolist()
         for i in stepped:
-            self.envs[i].task.supply.update(currents[i])
+            self.envs[i].task.supply.update(rows[i])
         self._currents = currents
 
     def supply_currents(self) -> np.ndarray:
@@ -347,7 +348,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
             counts = self._warning_counts[i]  # `base.clear_invalid_state_warnings`
             counts[invalid] = 0
             darwin_recording.substeps(self.envs[i].physics, n_sub, finish=True)  # recorded
-            bad = bool(counts[invalid].any())  # `base.invalid_state`
+            bad = bool(np.count_nonzero(counts[invalid]))  # `base.invalid_state`
             if not bad:
                 step1(model, data)
             for mine, theirs in self._reads[i]:  # `_read`

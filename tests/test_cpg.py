@@ -144,3 +144,23 @@ def test_config_validation():
         cpg.CPGConfig(stride_period=0.0)
     with pytest.raises(ValueError):
         cpg.CPGConfig(beta=-1.0)
+
+
+@pytest.mark.parametrize("shape", [(2, 3), (5, 2, 3), (400, 2, 3), (16, 120, 2, 3)])
+def test_combine_by_entry_equals_the_gathered_sum_bit_for_bit(shape):
+    """`combine`'s two ways (gathered per element for few rows, entry by entry over many)
+    give the same bits: values and amplitudes with zeros of both signs and of both
+    magnitudes, so the `+ 0.0` of the zero padding shows."""
+    rng = np.random.default_rng(len(shape))
+    k = shape[-3] if len(shape) > 2 else 6
+    amplitudes = rng.normal(0, 20, (k, cpg.N_AMPLITUDES))
+    amplitudes[0], amplitudes[1, ::2] = -0.0, 0.0
+    values = rng.normal(0, 5, shape) * 10.0 ** rng.integers(-300, 300, shape)
+    values.flat[::7], values.flat[::11] = 0.0, -0.0
+    by_entry = cpg._combine_by_entry(amplitudes, values)
+    terms = amplitudes[:, cpg._ENTRY_AMPLITUDES] * cpg._entries(values)  # the reference sum
+    padded = np.concatenate([terms, np.zeros(terms.shape[:-1] + (1,))], axis=-1)
+    parts = padded[..., cpg._JOINT_TERMS]
+    reference = ((parts[..., 0] + parts[..., 1]) + parts[..., 2]) + parts[..., 3]
+    assert by_entry.tobytes() == reference.tobytes()
+    assert cpg.combine(amplitudes, values).tobytes() == reference.tobytes()

@@ -24,6 +24,43 @@ def test_zero_gains_give_the_open_loop_targets_bit_for_bit():
     assert one.step(0.016, inputs[0]).shape == (12,)
 
 
+@pytest.mark.parametrize(
+    "config",
+    [
+        cpg.CPGConfig(),
+        cpg.CPGConfig(ramp_time=0.0, flexion_form="printed"),
+        cpg.CPGConfig(ramp_time=0.05),
+    ],
+    ids=["default", "no-ramp-printed", "short-ramp"],
+)
+@pytest.mark.parametrize("k", [1, 7, 120])
+def test_the_batched_step_is_the_reference_loop_bit_for_bit(config, k):
+    """`FeedbackCPG.step` (phases one substep at a time, the rest over all substeps at
+    once) equals `cpg.CPG.step`'s loop over substeps through the same hooks: targets, z, δ
+    and time, with strong gains and loads, inputs held (None) on some steps, signed zeros."""
+    rng = np.random.default_rng(k)
+    amps = cpg.amplitudes_from("hand_tuned") + rng.normal(0, 5, (k, cpg.N_AMPLITUDES))
+    gains = rng.normal(0, 2, (k, feedback.N_GAINS))
+    gains[0] = -0.0  # a trial with every gain −0: δ and the offsets stay signed zeros
+    params = np.concatenate([amps, gains], axis=1)
+    fast, reference = feedback.FeedbackCPG(params, config), feedback.FeedbackCPG(params, config)
+    for step in range(120):
+        inputs = rng.normal(0, 0.5, (k, len(feedback.INPUT_NAMES)))
+        inputs[:, 4:] = rng.uniform(0, 1.5, (k, 2))
+        inputs = None if step % 5 == 4 else inputs
+        dt = 0.016 if step % 7 else 0.008  # another substep count now and then
+        got = fast.step(dt, inputs)
+        if inputs is not None:
+            reference.inputs = inputs.copy()
+        want = cpg.CPG.step(reference, dt)
+        assert got.tobytes() == want.tobytes(), step
+    for name in ("z", "delta", "time"):
+        assert (
+            np.asarray(getattr(fast, name)).tobytes()
+            == np.asarray(getattr(reference, name)).tobytes()
+        ), name
+
+
 def test_gains_change_the_targets_and_the_phases():
     params = np.concatenate([_amplitudes(1)[0], np.ones(feedback.N_GAINS)])
     closed, open_loop = feedback.FeedbackCPG(params), cpg.CPG(_amplitudes(1)[0])

@@ -90,7 +90,17 @@ class _Trial:
         episode: Episode,
         supply: electrical.SupplyMonitor,
         layout: _Layout,
+        states: np.ndarray | None = None,
+        sensors: np.ndarray | None = None,
     ):
+        """Args:
+        episode: The trial's start, model and pushes.
+        supply: Its supply monitor.
+        layout: The addresses all trials share.
+        states, sensors: (n_sub, ·) buffers for the full state and the sensors after each
+          substep of a control step (rows of the evaluator's arrays for all trials; None:
+          its own).
+        """
         model = self.model = episode.model
         self.pushes, self.supply = episode.pushes, supply
         data = self.data = mujoco.MjData(model)
@@ -106,10 +116,11 @@ class _Trial:
         self.root_qpos = data.qpos[root : root + 7]  # a view
         self.warnings = data.warning.number  # a view: the counts a rollout clears
         self.damping = model.dof_damping[layout.servo_dofs]  # the episode's, fixed
-        self.meter = electrical.SupplyMeter(layout.n_sub, len(layout.servo_dofs))
-        nstate = mujoco.mj_stateSize(model, _FULLPHYSICS)
-        self.states = np.zeros((layout.n_sub, nstate))  # the full state after each substep
-        self.sensors = np.zeros((layout.n_sub, model.nsensordata))  # the sensors after each
+        if states is None:
+            states = np.zeros((layout.n_sub, mujoco.mj_stateSize(model, _FULLPHYSICS)))
+        if sensors is None:
+            sensors = np.zeros((layout.n_sub, model.nsensordata))
+        self.states, self.sensors = states, sensors  # the full state, sensors after each substep
         self._models, self._datas = [model], [data]
         self._warmstart = np.zeros((1, model.nv))  # the warm start a rollout starts from
         self._inputs = np.zeros(mujoco.mj_stateSize(model, _INPUTS))  # controls, forces, ...
@@ -132,7 +143,7 @@ class _Trial:
         mujoco.mj_step2(model, data)
         mujoco.mj_getState(model, data, states[0], _FULLPHYSICS)
         sensors[0] = data.sensordata
-        counts = self.warnings.copy() if self.warnings.any() else None
+        counts = self.warnings.copy() if np.count_nonzero(self.warnings) else None
         self._warmstart[0] = self._warmstart_now
         mujoco.mj_getState(model, data, self._inputs, _INPUTS)  # a reset at a warning clears them
         self._runner.rollout(
@@ -146,7 +157,7 @@ class _Trial:
             state=states[1:],
             sensordata=sensors[1:],
         )
-        if self.warnings.any():  # it stopped at a warning: the loop's steps
+        if np.count_nonzero(self.warnings):  # it stopped at a warning: the loop's steps
             mujoco.mj_setState(model, data, states[0], _FULLPHYSICS)
             mujoco.mj_setState(model, data, self._inputs, _INPUTS)
             self._warmstart_now[:] = self._warmstart[0]
@@ -200,6 +211,7 @@ class FeedbackEvaluator:
         )
         forces = self._sensors["servo_forces"]
         self._servo_forces = np.arange(forces.start, forces.stop)
+        self._record_shape = (mujoco.mj_stateSize(model.ptr, _FULLPHYSICS), model.nsensordata)
         self.supply = self._open.supply  # None: the study's unlimited physics
         self._root = int(model.jnt_qposadr[model.name2id("root", "joint")])
         self._layout = _Layout(self._root, self._torso, self._servo_dofs, self.n_sub)
@@ -234,11 +246,14 @@ class FeedbackEvaluator:
         seeds = [int(s) for s in np.atleast_1d(seeds)]
         rows = np.repeat(p, len(seeds), axis=0)  # trial i = (k, seed) = (i // S, i % S)
         episodes = [self._open.episode(s) for s in seeds]
+        n_state, n_sensor = self._record_shape
+        states = np.zeros((len(rows), self.n_sub, n_state))  # every trial's substeps
+        sensors = np.zeros((len(rows), self.n_sub, n_sensor))
         trials = [
-            _Trial(episode, self._open._monitor(episode), self._layout)
-            for _ in p
-            for episode in episodes
+            _Trial(episode, self._open._monitor(episode), self._layout, states[i], sensors[i])
+            for i, episode in enumerate(episodes * len(p))
         ]
+        damping = np.array([trial.damping for trial in trials])[:, None, :]
         controller = feedback.FeedbackCPG(rows, self.config)
         active = list(range(len(trials)))
         for t in range(self.steps):
@@ -246,7 +261,8 @@ class FeedbackEvaluator:
             targets = controller.step(darwin.CONTROL_TIMESTEP, inputs)
             legs = self._physics.action_to_targets(self._physics.targets_to_action(targets))
             ctrl = self._physics.controls_for(legs)
-            self._step_all([(trials[i], ctrl[i]) for i in active], t, quality)
+            self._step_all([(trials[i], ctrl[i]) for i in active], t)
+            self._measure(trials, active, (states, sensors, damping), t, quality)
             self._falls([trials[i] for i in active], t)
             active = [i for i in active if not trials[i].fall_step]
             if not active:
@@ -270,42 +286,74 @@ class FeedbackEvaluator:
             for trial in np.array(alive, dtype=object)[fallen]:
                 trial.fall_step, trial.cause = t + 1, FALL
 
-    def _step_all(self, work: list, t: int, quality: bool) -> None:
+    def _step_all(self, work: list, t: int) -> None:
         if self._executor is None:
-            self._step_block(work, t, quality)
+            self._step_block(work, t)
             return
         blocks = [work[i :: self.threads] for i in range(self.threads)]
-        for future in [self._executor.submit(self._step_block, b, t, quality) for b in blocks]:
+        for future in [self._executor.submit(self._step_block, b, t) for b in blocks]:
             future.result()
 
-    def _step_block(self, work: list, t: int, quality: bool) -> None:
+    def _step_block(self, work: list, t: int) -> None:
         for trial, ctrl in work:
-            self._step_trial(trial, ctrl, t, quality)
+            self._step_trial(trial, ctrl, t)
 
-    def _step_trial(self, trial: _Trial, ctrl: np.ndarray, t: int, quality: bool) -> None:
-        """One control step as `control.Environment.step` takes it (`score.step_policy`)."""
+    def _step_trial(self, trial: _Trial, ctrl: np.ndarray, t: int) -> None:
+        """One control step's physics as `control.Environment.step` takes it
+        (`score.step_policy`): the action, any push, the substeps, `mj_step1` for the
+        observation. A divergence ends the trial there (`invalid_state`); the supply's
+        verdict on the substeps follows for all trials at once (`_measure`)."""
         trial.ctrl[:] = ctrl
         if trial.pushes is not None:
             trial.push[:] = trial.pushes[t]
         trial.warnings[_INVALID] = 0  # `clear_invalid_state_warnings`
         trial.substeps()
-        # C-ordered copies (`take`), as the arrays of a loop's rows: NumPy's reductions
-        # over them then add in the same order.
-        velocity = trial.states.take(self._servo_velocities, axis=1)
-        if quality:  # each substep: its servos' velocities, then `RECORDED_SENSORS`
-            recorded = trial.sensors.take(self._recorded, axis=1)
-            trial.record.append(np.concatenate([velocity, recorded], axis=1))
         trial.simulated += self.n_sub
-        if trial.warnings[_INVALID].any():  # `invalid_state`
+        if np.count_nonzero(trial.warnings[_INVALID]):  # `invalid_state`
             trial.fall_step, trial.cause = t + 1, FALL
             return
-        force = trial.sensors.take(self._servo_forces, axis=1)  # `actuator_force` after each
-        currents = trial.meter(force, velocity, trial.damping)  # `supply_current`'s bits
-        if trial.supply.update(currents):
-            trial.fall_step, trial.cause = t + 1, BROWNOUT  # unless it fell too (`_falls`)
         mujoco.mj_step1(trial.model, trial.data)
         trial.root = trial.root_qpos.copy()
         trial.last = trial.root[:2]
+
+    def _measure(self, trials: list, stepped: list, records: tuple, t: int, quality: bool):
+        """The stepped trials' supply currents from their substeps' records, each fed to
+        its monitor (a brown-out ends the trial, unless it fell too: `_falls`), and with
+        `quality` the records kept; in one batch of NumPy calls.
+
+        Args:
+          trials: Every trial.
+          stepped: The indices of the trials stepped in control step t.
+          records: (states, sensors, damping): the trials' substep records and servo
+            damping, (trials, n_sub, ·) and (trials, 1, servos).
+          t: The control step.
+          quality: Keep each substep's servo velocities and `RECORDED_SENSORS`.
+        """
+        states, sensors, damping = records
+        rows = np.array(stepped) if len(stepped) < len(trials) else None
+
+        def columns(records: np.ndarray, index: np.ndarray) -> np.ndarray:
+            # C-ordered copies (`take`), as the arrays of a loop's rows: NumPy's reductions
+            # over them then add in the same order.
+            out = records.take(index, axis=2)
+            return out if rows is None else out.take(rows, axis=0)
+
+        velocity = columns(states, self._servo_velocities)
+        if quality:  # each substep: its servos' velocities, then `RECORDED_SENSORS`
+            recorded = np.concatenate([velocity, columns(sensors, self._recorded)], axis=2)
+            for i, record in zip(stepped, recorded):
+                trials[i].record.append(record)
+        force = columns(sensors, self._servo_forces)  # `actuator_force` after each substep
+        if rows is not None:
+            damping = damping.take(rows, axis=0)
+        with np.errstate(all="ignore"):  # a diverged trial's records (not used)
+            currents = electrical.supply_current(force, velocity, damping).tolist()
+        for i, values in zip(stepped, currents):
+            trial = trials[i]
+            if trial.fall_step:  # diverged (`_step_trial`)
+                continue
+            if trial.supply.update(values):
+                trial.fall_step, trial.cause = t + 1, BROWNOUT
 
     def _result(self, trials: list, shape: tuple, quality: bool) -> BatchResult:
         distance = np.array([t.last[0] - t.start[0] for t in trials]).reshape(shape)
