@@ -257,6 +257,11 @@ def servo_index(steps: int, servo_dofs: np.ndarray, nv: int) -> np.ndarray:
     return (np.arange(steps)[:, None] * nv + np.asarray(servo_dofs)[None, :]).reshape(-1)
 
 
+# From this many steps in one update, the monitor's sums run in NumPy (`_add_many`): below,
+# Python floats cost less than NumPy's calls.
+_IN_NUMPY_FROM = 64
+
+
 class SupplyMonitor:
     """One trial's supply current, step by step: its running total and the limit's verdict.
 
@@ -319,6 +324,8 @@ class SupplyMonitor:
 
     def _add(self, values: list[float]) -> int:
         """`update` of Python floats."""
+        if len(values) >= _IN_NUMPY_FROM:
+            return self._add_many(np.array(values, dtype=np.float64))
         total, worst, k = self.total, self.worst, self.steps
         limit = self.limit.current if self.enforce and not self.browned_out else math.inf
         ring, w, first = self._ring, self.window, 0
@@ -346,6 +353,34 @@ class SupplyMonitor:
         if first:
             self.browned_out = k + first
         self.total, self.worst, self.steps = total, worst, k + len(values)
+        return first
+
+    def _add_many(self, values: np.ndarray) -> int:
+        """`_add` over many steps in NumPy, with the same bits: the running totals are one
+        `np.add.accumulate` (strictly in order, as the loop adds), each window's mean the
+        same subtraction and division, the worst the largest mean that is a number."""
+        k, n, w = self.steps, len(values), self.window
+        totals = np.add.accumulate(np.concatenate([[self.total], values]))[1:]
+        if w is None:
+            means = totals / np.arange(k + 1, k + n + 1, dtype=np.float64)
+        else:
+            position = k % w
+            before = np.array(self._ring[position:] + self._ring[:position])  # T_{k+1−w..k}
+            earlier = np.concatenate([before, totals])
+            means = (totals - earlier[:n]) / float(w)
+            latest = earlier[-w:].tolist()  # T_{k+n+1−w..k+n}, ring[(k + n) % w] the first
+            end = (k + n) % w
+            self._ring = latest[w - end :] + latest[: w - end]
+        numbers = means[~np.isnan(means)]
+        if len(numbers) and numbers.max() > self.worst:
+            self.worst = float(numbers.max())
+        first = 0
+        if self.enforce and not self.browned_out:
+            over = np.flatnonzero(means > self.limit.current)
+            first = int(over[0]) + 1 if len(over) else 0
+        if first:
+            self.browned_out = k + first
+        self.total, self.steps = float(totals[-1]), k + n
         return first
 
     def mean(self) -> float:

@@ -114,6 +114,31 @@ def test_the_window_does_not_depend_on_how_the_steps_are_fed():
         assert by_control_step.worst == at_once.worst
 
 
+@pytest.mark.parametrize("window_steps", [None, 1, 3, 50, 500])
+def test_long_updates_in_numpy_equal_the_step_by_step_loop(window_steps, monkeypatch):
+    """`SupplyMonitor`'s NumPy path for long updates (`_add_many`) leaves every number the
+    Python loop leaves: the verdict, running total, worst window, step count, brown-out step
+    and the ring of earlier totals, over updates of many lengths, with and without the limit
+    enforced, and with a NaN current (a diverged step) inside a long update."""
+    rng = np.random.default_rng(window_steps or 0)
+    window = math.inf if window_steps is None else window_steps * DT
+    for trial in range(12):
+        limit = electrical.SupplyLimit(current=float(rng.uniform(3.0, 6.0)), window=window)
+        enforce = bool(trial % 3)
+        fast, loop = (electrical.SupplyMonitor(limit, DT, enforce) for _ in range(2))
+        for _ in range(6):
+            values = rng.gamma(2.0, 2.0, int(rng.choice([1, 8, 63, 64, 65, 700, 3000]))).tolist()
+            if trial == 5 and len(values) > 64:
+                values[3] = math.nan
+            verdict = fast.update(values)
+            with monkeypatch.context() as m:
+                m.setattr(electrical, "_IN_NUMPY_FROM", 10**9)  # the loop only
+                expected = loop.update(values)
+            got = (verdict, fast.total, fast.worst, fast.steps, fast.browned_out, fast._ring)
+            want = (expected, loop.total, loop.worst, loop.steps, loop.browned_out, loop._ring)
+            assert repr(got) == repr(want)
+
+
 def test_the_window_mean_is_the_last_seconds_mean_with_an_idle_start():
     currents = np.r_[np.full(600, 3.0), np.full(400, 11.0)]
     monitor = electrical.SupplyMonitor(electrical.SupplyLimit(), DT)

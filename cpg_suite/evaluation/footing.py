@@ -106,10 +106,11 @@ def contact_speeds(sole_velocity: np.ndarray, parts: dict) -> np.ndarray:
     Returns:
       (T, 2, SLOTS) speeds, m/s.
     """
-    w, r = parts["angvel"][..., None, :], parts["position"] - parts["centre"][..., None, :]
-    v = sole_velocity[..., None, :]
-    vx = v[..., 0] + (w[..., 1] * r[..., 2] - w[..., 2] * r[..., 1])
-    vy = v[..., 1] + (w[..., 2] * r[..., 0] - w[..., 0] * r[..., 2])
+    rx, ry, rz = _offsets(parts)
+    wx, wy, wz = _components(parts["angvel"])
+    v = _components(sole_velocity)
+    vx = v[0] + (wy * rz - wz * ry)
+    vy = v[1] + (wz * rx - wx * rz)
     return portable.hypot(vx, vy)
 
 
@@ -123,8 +124,8 @@ def sole_coordinates(parts: dict) -> tuple[np.ndarray, np.ndarray]:
     Returns:
       `(x, y)`, (T, 2, SLOTS) each.
     """
-    r = parts["position"] - parts["centre"][..., None, :]
-    return _dot(r, parts["xaxis"][..., None, :]), _dot(r, parts["yaxis"][..., None, :])
+    r = _offsets(parts)
+    return _dot(r, _components(parts["xaxis"])), _dot(r, _components(parts["yaxis"]))
 
 
 def lowest_corner(parts: dict) -> np.ndarray:
@@ -261,6 +262,23 @@ def _flat(loaded: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return front & back & left & right
 
 
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Dot products over the last axis of 3, summed in a fixed order."""
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+def _offsets(parts: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The x, y and z components of each contact's position from its sole's centre,
+    (T, 2, SLOTS) each (computed once per record and kept in `parts`)."""
+    if "offset" not in parts:
+        position = np.moveaxis(parts["position"], -1, 0)
+        centre = np.moveaxis(parts["centre"], -1, 0)[..., None]
+        parts["offset"] = tuple(np.subtract(position[i], centre[i]) for i in range(3))
+    return parts["offset"]
+
+
+def _components(vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The x, y and z components of (T, 2, 3) vectors as contiguous (T, 2, 1) arrays, to
+    broadcast against a foot's contacts. Element-wise arithmetic on whole contiguous
+    components gives the bits it gives on the interleaved vectors, in fewer, longer loops."""
+    return tuple(np.ascontiguousarray(vectors[..., i, None]) for i in range(3))
+
+
+def _dot(a: tuple, b: tuple) -> np.ndarray:
+    """Dot products of vectors given by their (x, y, z) components, summed in that order."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
