@@ -64,10 +64,8 @@ setup(
         "pandas>=2.0,<4",
         "tqdm>=4.60,<5",
         "scipy>=1.10,<2",
-        # The Gymnasium interfaces (cpg_suite.gym, .vector) and the CPG action space that
-        # verify and submit run (cpg_suite.residual): 4.5 MB with cloudpickle and
-        # Farama-Notifications, beside ~590 MB for the rest (docs/decisions.md#gymnasium).
-        "gymnasium>=1.0,<2",
+        # Gymnasium is the gym extra's: the core (the tasks, the baselines' main jobs,
+        # submit, verify and the board) imports none of it (docs/decisions.md#gymnasium).
     ],
     extras_require={
         # The fast tier (README: pytest -m "not slow"): the tests also render a gait video

@@ -18,7 +18,10 @@ than `render_mode` / `render_kwargs` go to the task (e.g. `time_limit`, `force`)
 
 from __future__ import annotations
 
-import gymnasium
+try:
+    import gymnasium
+except ImportError as e:  # the core install: one line that says what to install
+    raise ImportError(f"cpg_suite.gym needs Gymnasium: pip install 'cpg-suite[gym]' ({e})") from e
 from gymnasium.envs.registration import register
 
 import cpg_suite

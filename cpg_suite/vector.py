@@ -36,7 +36,12 @@ import concurrent.futures
 import os
 from collections.abc import Iterator
 
-import gymnasium
+try:
+    import gymnasium
+except ImportError as e:  # the core install: one line that says what to install
+    raise ImportError(
+        f"cpg_suite.vector needs Gymnasium: pip install 'cpg-suite[gym]' ({e})"
+    ) from e
 import mujoco
 import numpy as np
 from gymnasium.vector import AutoresetMode

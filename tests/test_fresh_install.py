@@ -96,7 +96,7 @@ def test_the_readme_runs_on_the_core_install(tmp_path):
     noise = [line for line in done.stderr.splitlines() if not _PIP_MACHINE_NOTE.match(line)]
     assert noise == [], "\n".join(noise)
     installed = _run(["python", "-m", "pip", "list", "--format=freeze"], tmp_path, env).stdout
-    assert not re.search(r"(?im)^(torch|jax|shimmy|ray|stable.baselines3)==", installed)
+    assert not re.search(r"(?im)^(torch|jax|gymnasium|shimmy|ray|stable.baselines3)==", installed)
 
     work = tmp_path / "newcomer"  # where the user runs things: the installed package only
     work.mkdir()

@@ -109,9 +109,10 @@ _KNOWN_LOW = {
     "env.step darwin_balance": (0.6, "0.66-0.74x: 10 us of mj_forwardSkip, ~12 of the COP loop"),
     "env.step darwin_walk_push": (0.65, "0.73-0.78x"),
     "vector env": (0.65, "0.74-0.76x"),
-    # Its feedback CPG integrates 16 substeps a control step in NumPy (~20 us a trial-step
-    # at 100 trials): the controller's own arithmetic, which a rollout of its controls skips.
-    "closed-loop evaluator": (0.55, "0.62-0.74x (0.62x before its rollout, 2026-11-28)"),
+    # Its feedback CPG's phases take 16 sequential substeps a control step in NumPy (~9 us a
+    # trial-step at 100 trials): arithmetic of the controller's, which a rollout of its
+    # controls skips. 0.62x before its rollout, 0.68-0.74x before the batched CPG step.
+    "closed-loop evaluator": (0.65, "0.72-0.81x (2026-11-28)"),
 }
 
 
