@@ -212,9 +212,9 @@ def _write_scaled(root, points: list[dict]) -> Evidence:
 
 
 def test_the_scaled_theta_rules(tmp_path):
-    """NAC-4b/5/6 on made-up scaled trials, judged at the largest α whose learned gaits
+    """NAC-4b/5a/5b/6 on made-up scaled trials, judged at the largest α whose learned gaits
     stand (α 10 here: α 100's fall): a small term whose gait worsens and falls at c ≥ 20
-    (NAC-4b and NAC-5 hold; the reward drops > 10 %: NAC-6 fails)."""
+    (NAC-4b, NAC-5a and NAC-5b hold; the reward drops > 10 %: NAC-6 fails)."""
     from analysis.study import chapter5
 
     worsening = [-0.051, -0.052, -0.06, -0.07, -0.2, -0.5]
@@ -229,11 +229,12 @@ def test_the_scaled_theta_rules(tmp_path):
     found = chapter5.scaled(ev)
     assert found["alpha"] == 10.0 and chapter5._c_star(found["runs"][0]) == 5.0
     assert chapter5.nac_4b(ev).verdict == v.HOLDS
-    assert chapter5.nac_5(ev).verdict == v.HOLDS
+    assert chapter5.nac_5a(ev).verdict == v.HOLDS
+    assert chapter5.nac_5b(ev).verdict == v.HOLDS
     assert chapter5.nac_6(ev).verdict == v.FAILS
     flat = _write_scaled(tmp_path / "flat", [_point(1.0, 0.5, [-0.0501] * 6, 99.0, 0)])
     assert chapter5.nac_4b(flat).verdict == v.FAILS
-    assert chapter5.nac_5(flat).verdict == v.FAILS  # never worse by a fall
+    assert chapter5.nac_5b(flat).verdict == v.FAILS  # it never falls
     assert chapter5.nac_6(flat).verdict == v.HOLDS
 
 
@@ -272,3 +273,46 @@ def test_one_run_event_bound():
     found = v.one_run([False] * 5, "x")
     assert found.verdict == v.INCONCLUSIVE and "45 %" in found.why
     assert v.one_run([True] * 4 + [False], "x").verdict == v.HOLDS
+
+
+@pytest.mark.skipif(
+    not (
+        _have("K10_n0.8_e2")
+        and _have("K50_n0.8_e2")
+        and os.path.isfile(os.path.join(Evidence().results, "study", "nac", "nac_scaled.json"))
+    ),
+    reason="the study's runs are not shipped",
+)
+def test_the_third_reading_on_the_shipped_runs():
+    """The criteria revised after the third reading of 2026-11-28, on the shipped runs:
+    CEM-14a not testable here with both readings (half of its own best within 10 rounds in
+    1 of 5 seeds, its first verdict "not reproduced here"; the thesis' 0.549 read as metres
+    by round 42 in 5 of 5); NAC-5 split, its reward half failing (1 of 5) and its fall half
+    (a fall at c 50) inconclusive (2 of 5; 4 of 5 fall at some c ≥ c*); CEM-9a's and
+    CPG-1b's verdicts unchanged, with the ratios they do not judge set beside."""
+    from analysis.study import catalog, revisions
+    from analysis.study.registry import RULES
+
+    ev = Evidence()
+    cem_14a = RULES["CEM-14a"](ev)
+    assert cem_14a.verdict == v.UNTESTABLE and "L1326" in cem_14a.why
+    assert "half of D within 10 rounds: 1 of 5 seeds" in cem_14a.evidence
+    assert "by round 42: 5 of 5 seeds, in rounds [10, 8, 9, 9, 9]" in cem_14a.evidence
+    assert revisions.FIRST["CEM-14a"](ev).verdict == v.NOT_REPRODUCED
+    assert "NAC-5" not in RULES
+    assert RULES["NAC-5a"](ev).verdict == v.FAILS
+    assert RULES["NAC-5a"](ev).evidence.endswith("worse at c 20 and 50: 1 of 5 seeds")
+    nac_5b = RULES["NAC-5b"](ev)
+    assert nac_5b.verdict == v.INCONCLUSIVE
+    assert nac_5b.evidence.endswith("a fall at c 50: 2 of 5 seeds")
+    assert "a fall at some c ≥ c* 4 of 5 seeds, at every c ≥ c* 1 of 5" in nac_5b.evidence
+    assert revisions.FIRST["NAC-5"](ev).verdict == v.FAILS  # α 100, as first written
+    cem_9a = RULES["CEM-9a"](ev)
+    assert cem_9a.verdict == v.INCONCLUSIVE
+    assert "ours 1.00 : 1.21 : 1.68" in cem_9a.evidence
+    assert "the thesis' one run 1.00 : 1.86 : 3.25" in cem_9a.evidence
+    cpg_1b = RULES["CPG-1b"](ev)
+    assert cpg_1b.verdict == v.HOLDS and "1.45 cm backwards" in cpg_1b.evidence
+    assert "the smallest D is 5.4 × |D_hand|" in cpg_1b.evidence
+    statement = {r["id"]: r["statement"] for r in catalog.load()}["CPG-1b"]
+    assert "at least 19 times farther (smallest" not in statement.partition("was '")[0]

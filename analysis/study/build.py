@@ -68,7 +68,7 @@ _NAC_SWEEP = RERUN["nac"] + " --sweep --resume"
 _NAC_SCALED = RERUN["nac"] + " --scaled"
 RERUN_OF_CLAIM = {
     **dict.fromkeys(("NAC-1", "NAC-2a", "NAC-7"), _NAC_SWEEP),
-    **dict.fromkeys(("NAC-4b", "NAC-5", "NAC-6"), _NAC_SCALED),
+    **dict.fromkeys(("NAC-4b", "NAC-5", "NAC-5a", "NAC-5b", "NAC-6"), _NAC_SCALED),
 }
 
 

@@ -242,17 +242,44 @@ def _scaled_text(found: dict, key: str) -> str:
     return f"{_at(found)}, {key} at θ = 0 {zero:+.4f}; scaled θ (F: a fall): " + "; ".join(rows)
 
 
-@rule("NAC-5")
-def nac_5(ev: Evidence) -> v.Verdict:
+@rule("NAC-5a")
+def nac_5a(ev: Evidence) -> v.Verdict:
+    """The reward half of NAC-5: worse than at θ = 0 at c 20 and 50 (split out of NAC-5's
+    criterion after the third reading of 2026-11-28, where a fall at c 50 was part of it)."""
     found = scaled(ev)
     zero = found["theta_zero"]["reward_per_step"]
     flags = []
     for run in found["runs"]:
         at = {p["c"]: p for p in run["scaled"]}
-        worse = all(at[c]["reward_per_step"] < zero for c in (20.0, 50.0))
-        flags.append(worse and at[50.0]["falls"] > 0)
+        flags.append(all(at[c]["reward_per_step"] < zero for c in (20.0, 50.0)))
     text = _scaled_text(found, "reward_per_step")
-    return v.majority(flags, text + "; worse at c 20 and 50 and a fall at c 50")
+    return v.majority(flags, text + "; worse at c 20 and 50")
+
+
+@rule("NAC-5b")
+def nac_5b(ev: Evidence) -> v.Verdict:
+    """The fall half of NAC-5: a fall at c 50 (its criterion's own fall condition, judged
+    apart after the third reading of 2026-11-28: the reward per step spreads a fall's
+    penalty over the steps before it, so it hides falls); beside, not judged, falls at some
+    and at every c ≥ c*."""
+    found = scaled(ev)
+    at_50, some, every, rows = [], [], [], []
+    for run in found["runs"]:
+        c_star = _c_star(run)
+        after = [p for p in run["scaled"] if c_star is not None and p["c"] >= c_star]
+        at_50.append(next(p["falls"] for p in run["scaled"] if p["c"] == 50.0) > 0)
+        some.append(any(p["falls"] for p in after))
+        every.append(bool(after) and all(p["falls"] for p in after))
+        falls = ", ".join(f"{p['c']:g}: {p['falls']}" for p in run["scaled"])
+        rows.append(f"seed {run['seed']} (c* {c_star}) {falls}")
+    n = len(found["runs"])
+    text = (
+        f"{_at(found)}, evaluations that fall (initial states 100-104) per scale c: "
+        + "; ".join(rows)
+        + f"; beside, not judged: a fall at some c ≥ c* {sum(some)} of {n} seeds, at every "
+        f"c ≥ c* {sum(every)} of {n}; a fall at c 50"
+    )
+    return v.majority(at_50, text)
 
 
 @rule("NAC-6")
@@ -316,15 +343,26 @@ def _smallest_d(ev: Evidence) -> tuple[float, dict[int, float]]:
 @rule("CPG-1b")
 def cpg_1b(ev: Evidence) -> v.Verdict:
     """Nearly walks in place: |D_hand| at most a fifth of each seed's smallest D (revised
-    after the second reading of 2026-11-27, where a backward D_hand met it by construction)."""
+    after the second reading of 2026-11-27, where a backward D_hand met it by construction).
+    Beside, not judged: the smallest D over |D_hand| (the thesis' 19× is a ratio of two
+    forward distances, 0.068321 / 0.003596 u.d.; shown after the third reading of
+    2026-11-28)."""
     hand, by_seed = _smallest_d(ev)
     flags = [abs(hand) <= d / 5 for d in by_seed.values()]
     smallest = ", ".join(f"{d:.3f}" for d in by_seed.values())
     way = f"{abs(hand) * 100:.2f} cm {'backwards' if hand < 0 else 'forwards'}"
-    return v.majority(
+    found = v.majority(
         flags,
         f"the hand-tuned gait walks {way} in 1000 steps; |D_hand| ≤ D/5 against each seed's "
         f"smallest D ({smallest} m)",
+    )
+    ratio = min(by_seed.values()) / abs(hand)
+    return v.Verdict(
+        found.verdict,
+        f"{found.evidence}; not judged: the smallest D is {ratio:.1f} × |D_hand| (the thesis' "
+        "19×, 0.068321 / 0.003596 u.d., divides two forward distances, which a backward "
+        "hand-tuned gait does not give: not testable here, as CEM-11b)",
+        found.why,
     )
 
 

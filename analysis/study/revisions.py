@@ -268,6 +268,22 @@ def nac_7(ev: Evidence) -> v.Verdict:
     return v.Verdict(v.HOLDS if ok else v.FAILS, "diverged counts and reward changes")
 
 
+# --- revised after the third reading of 2026-11-28 (an outside reader; CPG-1b's statement
+# from the re-signing reader's table, results/study/second_reading_after.csv) -------------
+# NAC-5 is split into NAC-5a (the reward) and NAC-5b (a fall at c 50), judged apart: its
+# first verdict stays the one above (α 100, as first written). CEM-9a's and CPG-1b's criteria
+# are unchanged (their statements and evidence say what is not judged).
+
+
+@first("CEM-14a")
+def cem_14a(ev: Evidence) -> v.Verdict:
+    """Was: half of the run's own best D within 10 rounds, labelled not reproduced here (a
+    time scale the thesis does not give)."""
+    found = chapter6.cem_14a_half_best(ev)
+    verdict = v.NOT_REPRODUCED if found.verdict == v.FAILS else found.verdict
+    return v.Verdict(verdict, found.evidence)
+
+
 # --- revised after the first second reading, commit 5e854fa (runs replaced) ---------------
 # CR-13 to CR-15 judged the learners after 1000 moves at their best α, where the thesis let
 # them learn to convergence (now 5000 moves); CPG-5 read "raising widens every joint it
