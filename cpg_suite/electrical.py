@@ -305,8 +305,8 @@ class SupplyMonitor:
           The 1-based index (among these n) of the first step whose window mean exceeds the
           limit, or 0. After a brown-out the monitor keeps measuring but reports no other.
         """
-        if isinstance(currents, list):  # Python numbers, as `tolist` gives them
-            return self._add(currents)
+        if type(currents) is list and all(type(c) is float for c in currents):
+            return self._add(currents)  # Python floats, as `tolist` gives them
         return self._add(np.asarray(currents, dtype=np.float64).tolist())
 
     def update_sums(self, sums: np.ndarray) -> int:
@@ -372,8 +372,10 @@ class SupplyMonitor:
             end = (k + n) % w
             self._ring = latest[w - end :] + latest[: w - end]
         numbers = means[~np.isnan(means)]
-        if len(numbers) and numbers.max() > self.worst:
-            self.worst = float(numbers.max())
+        if len(numbers):  # the first of the largest, as the loop keeps it (−0 before +0)
+            largest = float(numbers[np.argmax(numbers)])
+            if largest > self.worst:
+                self.worst = largest
         first = 0
         if self.enforce and not self.browned_out:
             over = np.flatnonzero(means > self.limit.current)

@@ -180,25 +180,27 @@ class FeedbackCPG(cpg.CPG):
                 np.asarray(inputs, dtype=np.float64), self.inputs.shape
             ).copy()
         n, h, decay, gain = self._substeps(dt)
-        mid = []  # each substep's mid-time, accumulated as `cpg.CPG.step` does
+        mid, time = [], self.time  # each substep's mid-time, accumulated as `cpg.CPG.step` does
         for _ in range(n):
-            mid.append(self.time + 0.5 * h)
-            self.time += h
-        phases, sin_phi, cos_phi = self._phase_path(mid, h)
+            mid.append(time + 0.5 * h)
+            time += h
+        # The state changes only once every substep is computed (an error, such as a
+        # non-finite phase, leaves it as it was).
+        phases, sin_phi, cos_phi, delta = self._phase_path(mid, h)
         values = cpg.values_from(phases, sin_phi, cos_phi, self._omega(), self.config)
         rates = self._rates_from(values, np.array(mid)[:, None])  # (n, K, 12)
         increments = gain * rates
         z, offsets = self.z, self._offsets
         for i in range(n):
             z = offsets + (z - offsets) * decay + increments[i]
-        self.z = z
+        self.time, self.z, self.delta, self._sin_phi = time, z, delta, sin_phi[-1]
         targets = cpg.to_joint_angles(self._anatomical_targets())
         return targets[0] if self._single else targets
 
     def _phase_path(self, mid: list[float], h: float) -> tuple[np.ndarray, ...]:
         """The phases at the substeps' mid-times and their sines and cosines, (n, K, 2)
-        each, with δ advanced over the substeps (`_advance_phases`, one substep at a time:
-        each substep's δ depends on the last one's sin φ)."""
+        each, and δ after the substeps (advanced as `_advance_phases` does, one substep at
+        a time: each substep's δ depends on the last one's sin φ)."""
         start, omega = self.config.initial_phase, self.config.omega
         shape = (len(mid),) + self.delta.shape
         phases, sin_phi, cos_phi = np.empty(shape), np.empty(shape), np.empty(shape)
@@ -209,8 +211,7 @@ class FeedbackCPG(cpg.CPG):
             np.add(np.array([left, left - math.pi]), delta, out=phases[i])
             sin_phi[i], cos_phi[i] = portable.sincos(phases[i])
             delta = delta + rate * sin_phi[i]
-        self.delta, self._sin_phi = delta, sin_phi[-1]
-        return phases, sin_phi, cos_phi
+        return phases, sin_phi, cos_phi, delta
 
 
 def start_params(amplitudes) -> np.ndarray:

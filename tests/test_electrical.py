@@ -139,6 +139,24 @@ def test_long_updates_in_numpy_equal_the_step_by_step_loop(window_steps, monkeyp
             assert repr(got) == repr(want)
 
 
+def test_long_updates_keep_the_loops_signed_zero_and_lists_of_other_floats_convert():
+    """The first of equal largest means is the worst, as in the loop (−0 before +0), and a
+    list of NumPy float32 numbers is read as float64, as an array of them is."""
+    values = [-5e-324] + [0.0] * 70 + [5e-324] * 3
+    fast, loop = (
+        electrical.SupplyMonitor(electrical.SupplyLimit(window=math.inf), DT) for _ in "ab"
+    )
+    fast.update(values)
+    for chunk in (values[:32], values[32:63], values[63:]):
+        loop.update(chunk)
+    assert repr(fast.worst) == repr(loop.worst) == "-0.0"
+    single = list(np.linspace(0.1, 3.3, 10, dtype=np.float32))
+    by_list, by_array = (electrical.SupplyMonitor(electrical.SupplyLimit(), DT) for _ in "ab")
+    by_list.update(single)
+    by_array.update(np.array(single))
+    assert type(by_list.total) is float and by_list.total == by_array.total
+
+
 def test_the_window_mean_is_the_last_seconds_mean_with_an_idle_start():
     currents = np.r_[np.full(600, 3.0), np.full(400, 11.0)]
     monitor = electrical.SupplyMonitor(electrical.SupplyLimit(), DT)

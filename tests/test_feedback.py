@@ -61,6 +61,19 @@ def test_the_batched_step_is_the_reference_loop_bit_for_bit(config, k):
         ), name
 
 
+def test_a_refused_step_leaves_the_cpg_as_it_was():
+    """A non-finite input (a NaN sole load makes a phase NaN, which sin refuses) raises
+    before any of the CPG's state changes: time, z, δ."""
+    params = np.concatenate([_amplitudes(2), np.ones((2, feedback.N_GAINS))], axis=1)
+    closed = feedback.FeedbackCPG(params)
+    closed.step(0.016, np.full((2, 6), 0.5))
+    before = (closed.time, closed.z.copy(), closed.delta.copy())
+    with pytest.raises(ValueError, match="finite"):
+        closed.step(0.016, [0.0, 0.0, 0.0, 0.0, np.nan, 0.0])
+    assert closed.time == before[0]
+    assert np.array_equal(closed.z, before[1]) and np.array_equal(closed.delta, before[2])
+
+
 def test_gains_change_the_targets_and_the_phases():
     params = np.concatenate([_amplitudes(1)[0], np.ones(feedback.N_GAINS)])
     closed, open_loop = feedback.FeedbackCPG(params), cpg.CPG(_amplitudes(1)[0])

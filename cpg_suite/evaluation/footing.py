@@ -264,12 +264,10 @@ def _flat(loaded: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def _offsets(parts: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The x, y and z components of each contact's position from its sole's centre,
-    (T, 2, SLOTS) each (computed once per record and kept in `parts`)."""
-    if "offset" not in parts:
-        position = np.moveaxis(parts["position"], -1, 0)
-        centre = np.moveaxis(parts["centre"], -1, 0)[..., None]
-        parts["offset"] = tuple(np.subtract(position[i], centre[i]) for i in range(3))
-    return parts["offset"]
+    (T, 2, SLOTS) each."""
+    position = np.moveaxis(parts["position"], -1, 0)
+    centre = np.moveaxis(parts["centre"], -1, 0)[..., None]
+    return tuple(np.subtract(position[i], centre[i]) for i in range(3))
 
 
 def _components(vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
