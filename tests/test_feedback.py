@@ -33,7 +33,7 @@ def test_zero_gains_give_the_open_loop_targets_bit_for_bit():
     ],
     ids=["default", "no-ramp-printed", "short-ramp"],
 )
-@pytest.mark.parametrize("k", [1, 7, 120])
+@pytest.mark.parametrize("k", [1, 7, 21, 120, 334])  # both sides of combine's switch
 def test_the_batched_step_is_the_reference_loop_bit_for_bit(config, k):
     """`FeedbackCPG.step` (phases one substep at a time, the rest over all substeps at
     once) equals `cpg.CPG.step`'s loop over substeps through the same hooks: targets, z, δ
@@ -48,13 +48,17 @@ def test_the_batched_step_is_the_reference_loop_bit_for_bit(config, k):
         inputs = rng.normal(0, 0.5, (k, len(feedback.INPUT_NAMES)))
         inputs[:, 4:] = rng.uniform(0, 1.5, (k, 2))
         inputs = None if step % 5 == 4 else inputs
-        dt = 0.016 if step % 7 else 0.008  # another substep count now and then
+        dt = (0.016, 0.008, 0.0161, 0.0015)[(step % 7 == 0) + 2 * (step % 11 == 0)]
+        if step % 13 == 6:  # the DMP term's roll input, as NAC sets it
+            roll = rng.normal(0, 20, (k, 2))
+            fast.set_roll_input(roll)
+            reference.set_roll_input(roll)
         got = fast.step(dt, inputs)
         if inputs is not None:
             reference.inputs = inputs.copy()
         want = cpg.CPG.step(reference, dt)
         assert got.tobytes() == want.tobytes(), step
-    for name in ("z", "delta", "time"):
+    for name in ("z", "delta", "time", "_sin_phi"):
         assert (
             np.asarray(getattr(fast, name)).tobytes()
             == np.asarray(getattr(reference, name)).tobytes()
