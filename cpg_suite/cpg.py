@@ -389,16 +389,14 @@ def _combine_by_entry(amplitudes: np.ndarray, values: np.ndarray) -> np.ndarray:
     CPG's substeps × trials). The same operations on the same numbers, so the same bits:
     Aₚ·(±v) = (±Aₚ)·v exactly (IEEE products round symmetrically), the terms added in the
     same order, and `+ 0.0` where `combine` adds its zero padding (it turns −0 into +0)."""
-    k = len(amplitudes)
     columns = np.moveaxis(values.reshape(values.shape[:-2] + (6,)), -1, 0)
     signed = (amplitudes[:, _ENTRY_AMPLITUDES] * _ENTRY_SIGNS).T.copy()  # (22, K)
-    shape = np.broadcast_shapes(values.shape[:-2], (k,))
     joints = []
-    for entries in _JOINT_ENTRIES:
-        total = np.zeros(shape)
-        for i, e in enumerate(entries):
-            term = signed[e] * columns[_ENTRY_COLUMNS[e]]
-            total = term if i == 0 else total + term
+    for entries in _JOINT_ENTRIES:  # every joint has 1 to 4 entries
+        terms = [signed[e] * columns[_ENTRY_COLUMNS[e]] for e in entries]
+        total = terms[0]
+        for term in terms[1:]:
+            total = total + term
         joints.append(total + 0.0 if len(entries) < 4 else total)
     return np.stack(joints, axis=-1)
 

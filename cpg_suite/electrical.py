@@ -307,7 +307,10 @@ class SupplyMonitor:
         """
         if type(currents) is list and all(type(c) is float for c in currents):
             return self._add(currents)  # Python floats, as `tolist` gives them
-        return self._add(np.asarray(currents, dtype=np.float64).tolist())
+        values = np.asarray(currents, dtype=np.float64)
+        if len(values) >= _IN_NUMPY_FROM:
+            return self._add_many(values)
+        return self._add(values.tolist())
 
     def update_sums(self, sums: np.ndarray) -> int:
         """`update` with the currents' `SupplyMeter.power_sums` (Σ max(0, P) per step):
