@@ -334,6 +334,11 @@ def _mean(values) -> float | str:
     return float(np.mean(values)) if values else ""
 
 
+def _mean_of_all(values) -> float | str:
+    """`_mean` of values every seed has ("" if one has none)."""
+    return _mean(values) if all(v is not None for v in values) else ""
+
+
 def _test_score(tests: list[dict], tier: str | None = None) -> dict:
     """Mean test score over seeds (all common tiers, or one) with its interval — the run's
     bootstrap interval for one seed, the stratified bootstrap interval over the runs for
@@ -444,7 +449,10 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
         "budget_sim_steps": _mean(
             [s.get("sim_steps", 0) + s.get("validation_sim_steps", 0) for s in summaries]
         ),
-        "in_sample_best_m": _mean([s.get("best_distance_m") for s in summaries]),
+        # As tried again (`admission.verified_summary`): a seed without it blanks it.
+        "in_sample_best_m": _mean_of_all(
+            [(s.get("in_sample") or {}).get("distance_m") for s in summaries]
+        ),
         **_rescored(summaries),
     }
     if ranked:
@@ -459,8 +467,8 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
             mean = low = high = falls = ""
         row[f"{tier}_score_m"], row[f"{tier}_fall_rate"] = mean, falls
         row[f"{tier}_ci95_low"], row[f"{tier}_ci95_high"] = low, high
-    for q in QUALITY:
-        row[q] = _mean([t["all"]["quality"].get(q) for t in tests])
+    for q in QUALITY:  # a seed whose median is not checked (`verified_summary`) blanks it
+        row[q] = _mean_of_all([t["all"]["quality"].get(q) for t in tests])
     pub, source = _published("darwin_walk", method, config, "best_distance_m")
     row["published_best_trial"] = "" if pub is None else pub
     row["published_source"] = source
@@ -541,7 +549,7 @@ def admit(found: list[dict], version: int | None = None) -> tuple[list[dict], li
     for run in darwin:
         reason = PRESET_REFUSAL if run["method"] == PRESET_METHOD else reasons.get(run["dir"])
         if reason is None:
-            admitted.append(run)
+            admitted.append(_checked(run))
             continue
         parts = os.path.normpath(run["dir"]).split(os.sep)
         refused.append(
@@ -556,6 +564,14 @@ def admit(found: list[dict], version: int | None = None) -> tuple[list[dict], li
             }
         )
     return admitted, refused
+
+
+def _checked(run: dict) -> dict:
+    """An admitted run as the board shows it: a card's gait-quality medians only where its
+    trial table holds the trials' measures (`admission.verified_summary`)."""
+    if run["method"] == PRESET_METHOD:
+        return run
+    return {**run, "summary": admission.verified_summary(run["dir"], run["summary"])}
 
 
 def darwin_board(found: list[dict], version: int | None = None) -> tuple[list[dict], list[dict]]:

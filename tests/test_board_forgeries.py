@@ -13,8 +13,10 @@ import sys
 import time
 
 import numpy as np
+import pytest
 
 from analysis import leaderboard
+from cpg_suite import protocol
 from cpg_suite.protocol import admission, copies, sample, verify
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -77,10 +79,13 @@ def _edit_consistently(run, change):
         steps = 1000
         for tier in card["tiers"]:
             made = admission._jsonable(
-                admission._card_row([t for t in trials if t["tier"] == tier], steps)
+                admission._without_quality(
+                    admission._card_row([t for t in trials if t["tier"] == tier], steps)
+                )
             )
             card["tiers"][tier].update(made)
-        card["all"].update(admission._jsonable(admission._card_row(trials, steps)))
+        made = admission._without_quality(admission._card_row(trials, steps))
+        card["all"].update(admission._jsonable(made))
     (run / "summary.json").write_text(json.dumps(summary, indent=2))
 
 
@@ -451,3 +456,139 @@ def test_two_folders_of_one_seed_are_one_seed(tmp_path):
     _seed(second, 1)
     shutil.move(second, runs / "cem" / "darwin_walk" / "K50_seed1")
     assert _refused(runs) == {}
+
+
+# Gait-quality numbers: the card's medians are made from the trials' measures in its table.
+
+
+def _cards_and_tables(summary):
+    yield "trials.csv", summary["test"]
+    for key, card in (summary.get("history") or {}).items():
+        yield f"trials_{key}.csv", card
+
+
+def _set_medians(run, name, card):
+    """The card's gait-quality medians made again from its table (the board's arithmetic)."""
+    trials = admission.read_trials(str(run / name))
+    for tier in card["tiers"]:
+        arrays = admission._quality_arrays([t for t in trials if t["tier"] == tier])
+        card["tiers"][tier]["quality"] = admission._jsonable(admission.card_stats.medians(arrays))
+    arrays = admission._quality_arrays(trials)
+    card["all"]["quality"] = admission._jsonable(admission.card_stats.medians(arrays))
+
+
+def _with_measures(run):
+    """A run whose tables hold each trial's measures and whose cards are their medians:
+    the shipped run's own if its tables hold them, else made up (values drawn at random,
+    the medians made from them), as a run that passes the board would hold them."""
+    summary = json.loads((run / "summary.json").read_text())
+    for name, card in _cards_and_tables(summary):
+        rows = _rows(run, name)
+        if any(k not in admission.OUTCOME_FIELDS for k in rows[0]):
+            continue
+        for r in rows:  # a trial's measures are the same in every table that holds it
+            rng = np.random.default_rng([int(r["seed"]), protocol.TIERS.index(r["tier"])])
+            for measure in card["all"]["quality"]:
+                r[measure] = repr(float(rng.uniform(0.1, 2.0)))
+        _write_rows(run, rows, name)
+        _set_medians(run, name, card)
+    (run / "summary.json").write_text(json.dumps(summary, indent=2))
+    return summary
+
+
+def _store(run, summary):
+    (run / "summary.json").write_text(json.dumps(summary, indent=2))
+
+
+def test_a_gait_quality_median_edited_in_any_card_is_refused(tmp_path):
+    """The forgery that passed: cost of transport 0.5 in the test card's pooled row, in a
+    tier row, in the version-2 card kept as history; each alone is refused."""
+    runs = tmp_path / "runs"
+    edits = {
+        "all": lambda s: s["test"]["all"]["quality"],
+        "darwin_walk_push": lambda s: s["test"]["tiers"]["darwin_walk_push"]["quality"],
+        "v2 all": lambda s: s["history"]["v2"]["all"]["quality"],
+    }
+    for i, (where, row) in enumerate(edits.items()):
+        run = _copy(runs, f"K50_seed{i}")
+        summary = _with_measures(run)
+        row(summary)["cost_of_transport"] = 0.5
+        _store(run, summary)
+        reason = admission.run_refusal(str(run))
+        assert reason.startswith("its trial table does not produce the card (")
+        assert "cost_of_transport differs" in reason
+        assert ("(its version-2 card, trials_v2.csv)" in reason) == where.startswith("v2")
+
+
+def test_measures_edited_with_their_medians_pass_the_board_and_fail_a_sample(tmp_path):
+    """Half the trials' cost of transport set to 0.5 and the medians made again from the
+    table: the board admits it (its arithmetic holds) and a re-score of any of those
+    trials says it differs from the table; an untouched trial still agrees."""
+    runs = tmp_path / "runs"
+    run = _copy(runs, "K50_seed0")
+    summary = _with_measures(run)
+    real = [r["cost_of_transport"] for r in _rows(run)]
+    for name, card in _cards_and_tables(summary):  # every table holding a trial alike
+        rows = _rows(run, name)
+        for r in rows:
+            if (r["tier"], r["seed"]) in {(t["tier"], t["seed"]) for t in _rows(run)[::2]}:
+                r["cost_of_transport"] = "0.5"
+        _write_rows(run, rows, name)
+        _set_medians(run, name, card)
+    _store(run, summary)
+    rows = _rows(run)
+    assert admission.run_refusal(str(run)) is None
+    if not admission._holds_measures(os.path.join(GAIT_RUN, "trials.csv")):
+        return  # the shipped run's measures are made up here: a re-score differs anyway
+    edited, kept = rows[0], rows[1]
+    assert edited["cost_of_transport"] != real[0] and kept["cost_of_transport"] == real[1]
+    chosen = {edited["tier"]: [int(edited["seed"])]}
+    assert verify.sample_run(str(run), chosen, threads=1) == [
+        f"{edited['tier']} seed {edited['seed']} differs from trials.csv"
+    ]
+    assert verify.sample_run(str(run), {kept["tier"]: [int(kept["seed"])]}, threads=1) == []
+
+
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (lambda rows: [r.pop("slip_per_m") for r in rows], "'slip_per_m' is in one only"),
+        (lambda rows: [r.update(my_score="1.0") for r in rows], "'my_score' is in one only"),
+        (lambda rows: rows[3].update(cost_of_transport="abc"), "ValueError"),
+        (lambda rows: rows[3].update(cost_of_transport="0x1p-1"), "ValueError"),
+    ],
+)
+def test_a_table_with_other_measure_columns_or_a_cell_not_a_number_is_refused(
+    tmp_path, change, words
+):
+    runs = tmp_path / "runs"
+    run = _copy(runs, "K50_seed0")
+    _with_measures(run)
+    rows = _rows(run)
+    change(rows)
+    _write_rows(run, rows)
+    reason = admission.run_refusal(str(run))
+    assert reason is not None and words in reason
+
+
+def test_a_card_whose_table_holds_no_measures_shows_none_on_the_board(tmp_path):
+    """A table without measure columns (as tables were made before they held them) vouches
+    for the outcomes only: the run is admitted, and whatever its card claims of its gait
+    quality, the board shows none of it for its configuration."""
+    runs = tmp_path / "runs"
+    for seed in range(5):
+        run = _copy(runs, f"K50_seed{seed}", source=GAIT_RUN.replace("seed0", f"seed{seed}"))
+        summary = json.loads((run / "summary.json").read_text())
+        for name, card in _cards_and_tables(summary):
+            rows = [{k: r[k] for k in admission.OUTCOME_FIELDS} for r in _rows(run, name)]
+            _write_rows(run, rows, name)
+            card["all"]["quality"]["cost_of_transport"] = 0.5
+        _store(run, summary)
+    found, _ = leaderboard.find_runs(str(runs))
+    admitted, refused = leaderboard.admit(found)
+    assert refused == [] and len(admitted) == 5
+    for run in admitted:
+        assert run["summary"]["test"]["all"]["quality"] == {}
+    (row,) = leaderboard.darwin_rows(admitted)
+    assert all(row[q] == "" for q in leaderboard.QUALITY)
+    assert row["test_score_m"] != ""  # its outcomes are on the board

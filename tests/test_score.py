@@ -160,3 +160,27 @@ def test_a_shipped_sb3_policy_scored_in_batches_gets_the_card_of_trial_by_trial(
         one_by_one = score.score_policy_trials(_OneByOne(policy), settings)
     assert json.dumps(batched[0], sort_keys=True) == json.dumps(one_by_one[0], sort_keys=True)
     assert batched[1] == one_by_one[1]
+
+
+@pytest.mark.parametrize("as_policy", [False, True])
+def test_the_trial_table_holds_each_trials_measures_and_the_card_their_medians(as_policy):
+    """Each row's gait-quality measures are the trial's, the card's medians are made from
+    them, and a trial scored alone (a sampled re-score) is its row, measures included."""
+    tiers = ("darwin_walk", "darwin_walk_push")
+    settings = score.ScoreSettings(tiers=tiers, seeds=3, steps=200, threads=1)
+    amps = cpg.amplitudes_from("hand_tuned") + np.linspace(-4, 4, 11)
+    gait = score.OpenLoopPolicy(amps, 200) if as_policy else amps
+    card, trials = score.cards_and_trials(gait, [settings])[0]
+    assert all(list(t["quality"]) == list(score.gait_quality.FIELDS) for t in trials)
+    assert all(v is None or np.isfinite(v) for t in trials for v in t["quality"].values())
+    for name in (*tiers, "all"):
+        rows = [t for t in trials if name in ("all", t["tier"])]
+        arrays = {
+            f: np.array([np.nan if t["quality"][f] is None else t["quality"][f] for t in rows])
+            for f in score.gait_quality.FIELDS
+        }
+        row = card["all"] if name == "all" else card["tiers"][name]
+        assert score.card_stats.medians(arrays) == row["quality"]
+    seeds = protocol.held_out_seeds(3)
+    alone = score.seed_trials(gait, settings, {"darwin_walk_push": [seeds[2]]})
+    assert alone == [trials[-1]]

@@ -41,6 +41,7 @@ import csv
 import hashlib
 import io
 import json
+import math
 import os
 import re
 from collections.abc import Iterable
@@ -64,6 +65,9 @@ ARTIFACTS = ((EXPORTED,), (SB3_MODEL, SB3_NORMALIZER), (ACTIONS,), (CODE,), (GAI
 # Those that run code when loaded: a Python file, and the pickles of an SB3 policy. The
 # others are data (JSON, NumPy arrays read without unpickling).
 CODE_FILES = (CODE, SB3_MODEL, SB3_NORMALIZER)
+# A gait run's in-sample best (its best training trial's gait, the round that found it and
+# what it walked there): what the board's in-sample column shows, and verify tries again.
+IN_SAMPLE = "best_params.json"
 # A run folder's name: `<config>_seed<S>` (the configuration's name less its seed).
 SEED_NAME = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
 
@@ -111,8 +115,14 @@ def missing_files(run_dir: str, trials: str = "trials.csv") -> list[str]:
     return missing
 
 
+OUTCOME_FIELDS = ("tier", "seed", "distance_m", "fell", "fall_step", "cause")  # score.TRIAL_FIELDS
+
+
 def read_trials(path: str) -> list[dict]:
-    """A trial table (`score.TRIAL_FIELDS`) as `score.score_gait_trials` returns it.
+    """A trial table (`score.TRIAL_FIELDS`, then a column per gait-quality measure) as
+    `score.score_gait_trials` returns it: a table with measure columns gives each row its
+    `quality` ({measure: float, or None for an empty cell}); one without (made before
+    tables held them) gives rows without `quality`.
 
     Raises:
       OSError: If it cannot be read.
@@ -124,8 +134,9 @@ def read_trials(path: str) -> list[dict]:
     twice = sorted({name for name in header if header.count(name) > 1})
     if twice:
         raise ValueError(f"{os.path.basename(path)} names the column {twice[0]!r} twice")
+    measures = [name for name in header if name not in OUTCOME_FIELDS]
     rows = list(reader)
-    return [
+    trials = [
         {
             "tier": r["tier"],
             "seed": int(r["seed"]),
@@ -136,6 +147,43 @@ def read_trials(path: str) -> list[dict]:
         }
         for r in rows
     ]
+    if measures:
+        for trial, r in zip(trials, rows):
+            trial["quality"] = {name: _measure(r[name], name) for name in measures}
+    return trials
+
+
+def _measure(text: str | None, name: str) -> float | None:
+    """A trial table's gait-quality cell: empty (None: the trial has no such measure) or a
+    number, NaN read as empty."""
+    if text is None:
+        raise ValueError(f"a row of the trial table has no {name} cell")
+    if text == "":
+        return None
+    value = float(text)
+    return None if math.isnan(value) else value
+
+
+def trial_cells(trial: dict) -> dict:
+    """A trial as its table's row writes it: its outcome, then its gait-quality measures
+    (None: an empty cell)."""
+    outcome = {k: v for k, v in trial.items() if k != "quality"}
+    measures = {k: "" if v is None else v for k, v in (trial.get("quality") or {}).items()}
+    return {**outcome, **measures}
+
+
+same_trial = sample.same_trial  # one definition; sample imports nothing of admission
+
+
+def same_trials(fresh: list[dict], stored: list[dict]) -> bool:
+    """`same_trial` for two tables, row by row (and of the same length)."""
+    return len(fresh) == len(stored) and all(map(same_trial, fresh, stored))
+
+
+def differing_trials(fresh: list[dict], stored: list[dict]) -> int:
+    """How many rows of two tables are not the same trial (`same_trial`), those beyond the
+    shorter table's end included."""
+    return sum(not same_trial(a, b) for a, b in zip(fresh, stored)) + abs(len(fresh) - len(stored))
 
 
 def _jsonable(value):
@@ -199,6 +247,9 @@ def trials_refusal(card: dict, trials: list[dict], steps: int) -> str | None:
                     f"{steps} (config.json)"
                 )
             return f"its trial table does not produce the card ({name}: speed_m_s differs)"
+    reason = quality_refusal(card, trials)
+    if reason:
+        return reason
     bound = len(trials) * steps * card_stats.PHYSICS_STEPS_PER_CONTROL_STEP
     sim_steps = card.get("scoring_sim_steps")
     if not isinstance(sim_steps, int) or not 0 < sim_steps <= bound:
@@ -207,6 +258,108 @@ def trials_refusal(card: dict, trials: list[dict], steps: int) -> str | None:
             f"of at most {steps} steps"
         )
     return None
+
+
+def quality_refusal(card: dict, trials: list[dict]) -> str | None:
+    """Why a trial table's gait-quality measures do not stand behind its card (None: they
+    do, or the table holds none: then the card's medians are not the board's,
+    `verified_summary`).
+
+    A table that holds measures holds one column for each of the card's and no other, and
+    each median of the card (each tier's row and the pooled one) is made again from them
+    with the card's own arithmetic (`card.summarize`), equal bit for bit.
+
+    Args:
+      card: The stored card (`tiers`, `all`), its trial table already found to produce
+        every other statistic (`trials_refusal`).
+      trials: Its trial table (`read_trials`).
+
+    Returns:
+      A one-line reason, or None.
+    """
+    if not trials or "quality" not in trials[0]:
+        return None
+    names = list(trials[0]["quality"])
+    claimed = list(card["all"].get("quality") or {})
+    if sorted(names) != sorted(claimed):
+        extra = sorted(set(names) - set(claimed)) or sorted(set(claimed) - set(names))
+        return (
+            f"its trial table's gait-quality columns are not its card's measures "
+            f"({extra[0]!r} is in one only)"
+        )
+    tiers = list(card["tiers"])
+    rows = {tier: [t for t in trials if t["tier"] == tier] for tier in tiers}
+    rows["all"] = trials
+    for name, tier_trials in rows.items():
+        stored = (card["all"] if name == "all" else card["tiers"][name]).get("quality") or {}
+        made = _jsonable(card_stats.medians(_quality_arrays(tier_trials)))
+        if sorted(stored) != sorted(claimed):
+            return f"its card's {name} row and its all row name other gait-quality measures"
+        for measure in claimed:
+            if stored[measure] != made[measure]:
+                return f"its trial table does not produce the card ({name}: {measure} differs)"
+    return None
+
+
+def _quality_arrays(trials: list[dict]) -> dict[str, np.ndarray]:
+    """A table's gait-quality measures as the card's arrays (an empty cell: NaN)."""
+    names = trials[0]["quality"] if trials else {}
+    return {
+        name: np.array(
+            [np.nan if t["quality"][name] is None else t["quality"][name] for t in trials]
+        )
+        for name in names
+    }
+
+
+def verified_summary(run_dir: str, summary: dict) -> dict:
+    """A run's summary as the board shows it: each card's gait-quality medians only where
+    its trial table holds the trials' measures (admission made them again from those,
+    `quality_refusal`); a card whose table holds none shows none (its medians cannot be
+    checked against trials, as a sampled re-score checks the table); and its in-sample best
+    as tried again (`in_sample`, which verify tries again from its `IN_SAMPLE` gait), not
+    its training record (`best_distance_m`, as trained: nothing re-makes it).
+
+    Args:
+      run_dir: An admitted run.
+      summary: Its summary.
+
+    Returns:
+      A copy of `summary`, its cards' unchecked `quality` emptied.
+    """
+    cards = cards_of(summary)
+    if isinstance(cards, str):
+        return summary
+    current = max(cards)
+    checked = dict(summary)
+    if "in_sample" not in summary:
+        checked["in_sample"] = None  # not tried again: not on the board
+    history = dict(summary.get("history") or {})
+    for version, card in cards.items():
+        path = os.path.join(run_dir, trials_file(version, current))
+        if _holds_measures(path):
+            continue
+        blank = _without_measures(card)
+        if version == current:
+            checked["test"] = blank
+        else:
+            history[f"v{version}"] = blank
+    if history:
+        checked["history"] = history
+    return checked
+
+
+def _holds_measures(path: str) -> bool:
+    """Whether a trial table has gait-quality columns (its header names more than the
+    outcome's)."""
+    header = files.read_text(path).split("\n", 1)[0]
+    return any(name not in OUTCOME_FIELDS for name in next(csv.reader([header]), []))
+
+
+def _without_measures(card: dict) -> dict:
+    """A card with every row's gait-quality medians emptied."""
+    tiers = {t: {**row, "quality": {}} for t, row in card["tiers"].items()}
+    return {**card, "tiers": tiers, "all": {**card["all"], "quality": {}}}
 
 
 def actions_refusal(path: str, steps: int) -> str | None:
@@ -284,7 +437,13 @@ def looks_like_run(dirpath: str, names: Iterable[str]) -> bool:
 def run_files(run_dir: str) -> list[str]:
     """The names of the files the board or verify reads of a run folder: its config,
     summary, versions, trial tables and gait or policy files, as the folder holds them."""
-    read = ("config.json", "summary.json", "versions.json", *(n for a in ARTIFACTS for n in a))
+    read = (
+        "config.json",
+        "summary.json",
+        "versions.json",
+        IN_SAMPLE,
+        *(n for a in ARTIFACTS for n in a),
+    )
     return sorted(
         n
         for n in os.listdir(run_dir)
@@ -430,7 +589,7 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
         reason = _alike_refusal(cards, tables, kept, current)
         if reason:
             return reason
-    reason = training_refusal(run_dir, settings, summary)
+    reason = training_refusal(run_dir, settings, summary) or in_sample_refusal(run_dir, summary)
     if reason:
         return reason
     match = SEED_NAME.match(name)
@@ -484,7 +643,7 @@ def _alike_refusal(cards: dict, tables: dict, old: int, new: int) -> str | None:
     for tier in protocol.scored_alike(old, new):
         mine = [t for t in tables[old] if t["tier"] == tier]
         now = [t for t in tables[new] if t["tier"] == tier]
-        if mine != now:
+        if not same_trials(now, mine):
             return (
                 f"its version-{old} trials differ from its version-{new} trials on {tier}, "
                 f"which both versions score alike (trials_v{old}.csv, trials.csv)"
@@ -499,6 +658,53 @@ def _alike_refusal(cards: dict, tables: dict, old: int, new: int) -> str | None:
 
 def _count(value) -> bool:
     return type(value) is int and value >= 0
+
+
+def in_sample_refusal(run_dir: str, summary: dict) -> str | None:
+    """Why a run's in-sample best does not hold together (None: it does, or it reports
+    none): the best training trial `summary.json` reports (`best_distance_m`, `best_fell`,
+    `best_round`) is the one its `IN_SAMPLE` gait records; and what `summary.json` stores
+    of it tried again (`in_sample`: the board's in-sample column, which verify tries again
+    on the training seeds of that round, `verify.in_sample_problems`) is a trial's record,
+    of a run that holds that gait.
+
+    Args:
+      run_dir: The run folder.
+      summary: Its summary.
+
+    Returns:
+      A one-line reason, or None.
+    """
+    path = os.path.join(run_dir, IN_SAMPLE)
+    if not os.path.isfile(path):
+        if summary.get("in_sample") is not None:
+            return f"summary.json stores an in_sample best tried again, but no {IN_SAMPLE}"
+        return None
+    best = _read_json(path)
+    for key, field in (
+        ("best_distance_m", "distance_m"),
+        ("best_fell", "fell"),
+        ("best_round", "round"),
+    ):
+        if key in summary and summary[key] != best.get(field):
+            theirs = best.get(field)
+            return f"summary.json's {key} {summary[key]!r} is not its {IN_SAMPLE}'s {theirs!r}"
+    if not _trial_record(best) or type(best.get("round")) is not int or best["round"] < 1:
+        return f"its {IN_SAMPLE} does not record a finite distance_m, a fell flag and a round ≥ 1"
+    tried = summary.get("in_sample")
+    if tried is not None and (not _trial_record(tried) or set(tried) != {"distance_m", "fell"}):
+        return "summary.json's in_sample is not a trial's finite distance_m and fell flag"
+    return None
+
+
+def _trial_record(record) -> bool:
+    """Whether a record holds a trial's finite `distance_m` (a float) and `fell` (a bool)."""
+    return (
+        isinstance(record, dict)
+        and type(record.get("distance_m")) is float
+        and math.isfinite(record["distance_m"])
+        and type(record.get("fell")) is bool
+    )
 
 
 def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
@@ -605,7 +811,8 @@ def run_digest(run_dir: str) -> str:
     names = sorted(
         n
         for n in os.listdir(run_dir)
-        if n in ("config.json", "summary.json", "versions.json", *artifact_files(run_dir))
+        if n
+        in ("config.json", "summary.json", "versions.json", IN_SAMPLE, *artifact_files(run_dir))
         or (n.startswith("trials") and n.endswith(".csv"))
     )
     digest = hashlib.sha256()

@@ -88,10 +88,21 @@ def summarize(
             "iqm": float(_iqm(distance)),
             "iqm_ci95": _interval(distance, _iqm),
         },
-        "quality": {
-            f: float(np.nanmedian(v)) if np.isfinite(v).any() else None for f, v in quality.items()
-        },
+        "quality": medians(quality),
     }
+
+
+def medians(quality: dict) -> dict:
+    """The card's gait-quality medians: each measure's median over the trials that have it
+    (NaN: a trial without), None where no trial has a finite value.
+
+    Args:
+      quality: (n,) arrays of `cpg_suite.evaluation.quality.FIELDS` (may be empty).
+
+    Returns:
+      {measure: float or None}, in the order given.
+    """
+    return {f: float(np.nanmedian(v)) if np.isfinite(v).any() else None for f, v in quality.items()}
 
 
 def row(

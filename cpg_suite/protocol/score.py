@@ -192,8 +192,29 @@ def stored_card(card: dict) -> dict:
     return {k: card[k] for k in CARD_KEYS if k in card}
 
 
-# The columns of a card's per-trial table (`score_gait_trials`, `trials.csv` of a shipped run).
+# The columns of a card's per-trial table (`score_gait_trials`, `trials.csv` of a shipped run);
+# after them, one column per gait-quality measure of the card (a row's `quality`).
 TRIAL_FIELDS = ("tier", "seed", "distance_m", "fell", "fall_step", "cause")
+
+
+def trial_row(tier: str, seed: int, arrays: dict, i: int) -> dict:
+    """Trial `i` of a tier's arrays (`d`, `f`, `s`, `c`, `q`) as a trial table's row: its
+    outcome (`TRIAL_FIELDS`) and its gait-quality measures (`quality`: a float each, None
+    where the trial has none: NaN), from which the card's medians are made."""
+    return {
+        "tier": tier,
+        "seed": seed,
+        "distance_m": float(arrays["d"][i]),
+        "fell": bool(arrays["f"][i]),
+        "fall_step": int(arrays["s"][i]),
+        "cause": cause_name(arrays["c"][i]),
+        "quality": {f: _measure(v[i]) for f, v in arrays["q"].items()},
+    }
+
+
+def _measure(value) -> float | None:
+    value = float(value)
+    return None if math.isnan(value) else value
 
 
 def score_gait_trials(
@@ -256,14 +277,7 @@ def _card_and_trials(per_tier: dict, settings: ScoreSettings) -> tuple[dict, lis
     """The card and trial table of the tiers `settings` names, from per-tier arrays."""
     seeds = protocol.held_out_seeds(settings.seeds)
     trials = [
-        {
-            "tier": tier,
-            "seed": seed,
-            "distance_m": float(per_tier[tier]["d"][i]),
-            "fell": bool(per_tier[tier]["f"][i]),
-            "fall_step": int(per_tier[tier]["s"][i]),
-            "cause": cause_name(per_tier[tier]["c"][i]),
-        }
+        trial_row(tier, seed, per_tier[tier], i)
         for tier in settings.tiers
         for i, seed in enumerate(seeds)
     ]
@@ -332,24 +346,10 @@ def seed_trials(gait_or_policy, settings: ScoreSettings, seeds_by_tier: dict) ->
     for tier in tiers:
         seeds = seeds_by_tier[tier]
         if callable(gait_or_policy):
-            results = done[tier]
-            d, f, s, c = (
-                [r[k] for r in results] for k in ("distance_m", "fell", "fall_step", "cause")
-            )
+            arrays = _policy_arrays(done[tier])
         else:
             arrays, _ = _gait_tier(np.asarray(gait_or_policy), tier, seeds, settings)
-            d, f, s, c = arrays["d"], arrays["f"], arrays["s"], arrays["c"]
-        rows += [
-            {
-                "tier": tier,
-                "seed": seed,
-                "distance_m": float(d[i]),
-                "fell": bool(f[i]),
-                "fall_step": int(s[i]),
-                "cause": cause_name(c[i]),
-            }
-            for i, seed in enumerate(seeds)
-        ]
+        rows += [trial_row(tier, seed, arrays, i) for i, seed in enumerate(seeds)]
     return rows
 
 
@@ -598,18 +598,20 @@ def _policy_tiers(policy, settings: ScoreSettings) -> dict:
         tiers[i]: _policy_tier(policy, tiers[i], seeds, settings)
         for i in _order(policy, len(tiers))
     }
-    per_tier = {}
-    for tier in tiers:
-        trials = done[tier]
-        per_tier[tier] = {
-            "d": np.array([r["distance_m"] for r in trials]),
-            "f": np.array([r["fell"] for r in trials]),
-            "s": np.array([r["fall_step"] for r in trials]),
-            "c": np.array([r["cause"] for r in trials]),
-            "q": {f: np.array([r["quality"][f] for r in trials]) for f in gait_quality.FIELDS},
-            "n": sum(r["sim_steps"] for r in trials),
-        }
-    return per_tier
+    return {tier: _policy_arrays(done[tier]) for tier in tiers}
+
+
+def _policy_arrays(trials: list[dict]) -> dict:
+    """A policy's trials on one tier (`_policy_tier`) as a tier's arrays (`_gait_tier`'s,
+    with `n`)."""
+    return {
+        "d": np.array([r["distance_m"] for r in trials]),
+        "f": np.array([r["fell"] for r in trials]),
+        "s": np.array([r["fall_step"] for r in trials]),
+        "c": np.array([r["cause"] for r in trials]),
+        "q": {f: np.array([r["quality"][f] for r in trials]) for f in gait_quality.FIELDS},
+        "n": sum(r["sim_steps"] for r in trials),
+    }
 
 
 def _policy_tier(policy, tier: str, seeds, settings: ScoreSettings) -> list[dict]:

@@ -77,7 +77,8 @@ from collections.abc import Callable
 import numpy as np
 from absl import flags
 
-from cpg_suite import cli, cpg, feedback, progress, protocol
+from cpg_suite import cli, cpg, evaluation, feedback, progress, protocol
+from cpg_suite.harness import interface, rounds
 from cpg_suite.protocol import admission, audit, sample, sandbox, score
 from cpg_suite.protocol import card as card_stats
 from cpg_suite.runfiles import exported, runs
@@ -268,10 +269,11 @@ def stored_card(run_dir: str) -> dict | None:
     return runs.read_json(path).get("test") if os.path.exists(path) else None
 
 
-def gait_params(run_dir: str, controller: str) -> np.ndarray:
-    """A gait run's selected parameters (`selected_params.json`): the CPG's amplitudes, or
-    the feedback CPG's amplitudes and gains (`controller` "feedback")."""
-    path = os.path.join(run_dir, "selected_params.json")
+def gait_params(run_dir: str, controller: str, name: str = "selected_params.json") -> np.ndarray:
+    """A gait run's selected parameters (`selected_params.json`, or another gait file it
+    holds): the CPG's amplitudes, or the feedback CPG's amplitudes and gains (`controller`
+    "feedback")."""
+    path = os.path.join(run_dir, name)
     if controller == "feedback":
         return feedback.load_params(path)
     return cpg.load_amplitudes(path)
@@ -381,8 +383,12 @@ def _jsonable(value):
 
 
 def write_trials(path: str, trials: list[dict]) -> None:
-    """Writes the trial table; floats with all their digits (they read back exactly)."""
-    rows = [{k: repr(v) if isinstance(v, float) else v for k, v in t.items()} for t in trials]
+    """Writes the trial table (`admission.trial_cells`: the outcome, then a column per
+    gait-quality measure); floats with all their digits (they read back exactly)."""
+    rows = [
+        {k: repr(v) if isinstance(v, float) else v for k, v in admission.trial_cells(t).items()}
+        for t in trials
+    ]
     runs.write_rows_csv(path, rows)
 
 
@@ -532,15 +538,31 @@ def fresh_card(
       ValueError: If a trial differs from `trials.csv`, or a history card differs.
       UntrustedCode: If its policy is code not trusted (nothing is loaded).
     """
+    return fresh_scoring(run_dir, threads, trust_code, trusted)[0][0]
+
+
+def fresh_scoring(
+    run_dir: str,
+    threads: int = 2,
+    trust_code: bool = False,
+    trusted: frozenset[str] | None = None,
+) -> tuple[tuple[dict, list[dict]], list[tuple[int, dict, list[dict]]]]:
+    """`fresh_card` with the trials behind it, and each card the run keeps as history made
+    again with its trials: `((card, trials), [(version, card, trials), ...])`.
+
+    Raises:
+      ValueError, UntrustedCode: As `fresh_card`.
+    """
     summary = runs.read_json(os.path.join(run_dir, "summary.json"))
     how = (threads, trust_code, trusted)
     (card, trials), alike = score_with_history(run_dir, summary, None, *how)
     problems = _compare(run_dir, summary, trials, None, alike, quick=False)
-    problems += history_problems(run_dir, summary, None, *how)
+    others, more = _history_scored(run_dir, summary, None, *how)
+    problems += more
     if problems:
         what = "; ".join(problems)
         raise ValueError(f"{run_dir}: its trials changed ({what}); ship the run again instead")
-    return card
+    return (card, trials), alike + others
 
 
 def update_card(
@@ -549,7 +571,9 @@ def update_card(
     trust_code: bool = False,
     trusted: frozenset[str] | None = None,
 ) -> None:
-    """Re-scores a shipped run and stores the new card, if its trials are unchanged.
+    """Re-scores a shipped run and stores the new card, if its trials are unchanged, with
+    its trial tables made again: each trial's gait-quality measures beside its outcome
+    (a card kept as history keeps its card, and its table gains the measures it holds).
 
     Args:
       run_dir: A shipped run.
@@ -561,7 +585,27 @@ def update_card(
       ValueError: If a trial differs from `trials.csv` (nothing is written then).
       UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
-    _store_card(run_dir, fresh_card(run_dir, threads, trust_code, trusted))
+    _store_scoring(run_dir, *fresh_scoring(run_dir, threads, trust_code, trusted))
+    store_in_sample(run_dir, threads)
+
+
+def _store_scoring(run_dir: str, test: tuple[dict, list[dict]], history: list) -> None:
+    """Stores `fresh_scoring`'s card and tables (history cards as they are kept)."""
+    summary = runs.read_json(os.path.join(run_dir, "summary.json"))
+    for version, _, trials in history:
+        kept = summary["history"][f"v{version}"]
+        write_trials(os.path.join(run_dir, history_trials_file(version)), _measured(trials, kept))
+    write_trials(os.path.join(run_dir, "trials.csv"), test[1])
+    _store_card(run_dir, test[0])
+
+
+def _measured(trials: list[dict], card: dict) -> list[dict]:
+    """Trials with the gait-quality measures a card holds (none if it holds one that they
+    lack: a measure since renamed or dropped)."""
+    names = list(card["all"].get("quality") or {})
+    if not all(name in (t.get("quality") or {}) for t in trials for name in names):
+        return [{k: v for k, v in t.items() if k != "quality"} for t in trials]
+    return [{**t, "quality": {name: t["quality"][name] for name in names}} for t in trials]
 
 
 def _store_card(run_dir: str, card: dict) -> None:
@@ -622,13 +666,16 @@ def _store_history_if_changed(run_dir: str, version: int, card: dict, trials: li
     keeps (every value of the kept card made again, equal: `extends`)."""
     summary_path = os.path.join(run_dir, "summary.json")
     summary = runs.read_json(summary_path)
-    name = history_trials_file(version)
-    fresh = _jsonable(score.stored_card(card))
-    if trials == read_trials(os.path.join(run_dir, name)) and extends(
-        fresh, summary["history"][f"v{version}"]
-    ):
+    path = os.path.join(run_dir, history_trials_file(version))
+    kept = summary["history"][f"v{version}"]
+    stored = read_trials(path)
+    if admission.same_trials(trials, stored) and extends(_jsonable(score.stored_card(card)), kept):
+        table = _measured(trials, kept)  # the kept card stays; its table holds its measures
+        if table != stored:
+            write_trials(path, table)
         return
-    write_trials(os.path.join(run_dir, name), trials)
+    fresh = _jsonable(score.stored_card(card))
+    write_trials(path, trials)
     history = {**summary["history"], f"v{version}": fresh}
     runs.write_json(summary_path, {**summary, "history": history})
     _record_scoring(run_dir)
@@ -689,7 +736,8 @@ def verify_run(
     how = (threads, trust_code, trusted)
     (card, trials), alike = score_with_history(run_dir, summary, seeds, *how)
     problems = _compare(run_dir, summary, trials, card, alike, quick)
-    return problems + history_problems(run_dir, summary, seeds, *how)
+    problems += history_problems(run_dir, summary, seeds, *how)
+    return problems + in_sample_problems(run_dir, threads)
 
 
 def score_with_history(
@@ -739,9 +787,9 @@ def _compare(
         stored = read_trials(os.path.join(run_dir, name))
         wanted = {(t["tier"], t["seed"]) for t in fresh}
         stored = [t for t in stored if (t["tier"], t["seed"]) in wanted] if quick else stored
-        if fresh != stored:
-            differ = sum(a != b for a, b in zip(fresh, stored))
-            problems.append(f"{differ or 'the number of'} trials differ from {name}")
+        if not admission.same_trials(fresh, stored):
+            differ = admission.differing_trials(fresh, stored)
+            problems.append(f"{differ} trials differ from {name}")
         if quick or fresh_card is None:
             continue
         made = _jsonable(score.stored_card(fresh_card))
@@ -750,6 +798,73 @@ def _compare(
         elif version is not None and not extends(made, stored_card):
             problems.append(f"the version-{version} card differs from summary.json's history")
     return problems
+
+
+def in_sample_trial(run_dir: str, threads: int = 2) -> dict | None:
+    """A gait run's in-sample best tried again by this code: its gait
+    (`admission.IN_SAMPLE`) on the training seeds of the round that found it
+    (`rounds.round_seeds`), on its training task and physics, as training tried it.
+
+    Args:
+      run_dir: A run folder.
+      threads: Evaluator threads.
+
+    Returns:
+      `{"distance_m": its mean distance, "fell": whether it fell}` (as `summary.json`'s
+      `in_sample` stores it, the board's in-sample column), or None for a run without it.
+    """
+    path = os.path.join(run_dir, admission.IN_SAMPLE)
+    if not os.path.isfile(path):
+        return None
+    settings = training_settings(runs.read_json(os.path.join(run_dir, "config.json")))
+    vector = gait_params(run_dir, settings.controller, admission.IN_SAMPLE)
+    seeds = rounds.round_seeds(settings, runs.read_json(path)["round"])
+    with evaluation.open_evaluator(
+        settings.task,
+        settings.trial_steps,
+        threads,
+        controller=settings.controller,
+        task_kwargs=settings.task_kwargs(),
+    ) as evaluator:
+        result = evaluator.evaluate(vector[None], seeds)
+    return {"distance_m": float(result.distance_m.mean(axis=1)[0]), "fell": bool(result.fell.any())}
+
+
+def in_sample_problems(run_dir: str, threads: int = 2) -> list[str]:
+    """The in-sample best a run stores for the board (`summary.json`'s `in_sample`) tried
+    again (`in_sample_trial`), bit for bit; [] if it reproduces or the run stores none.
+
+    Raises:
+      OSError, KeyError, ValueError: On a run without a readable config or gait.
+    """
+    stored = runs.read_json(os.path.join(run_dir, "summary.json")).get("in_sample")
+    if stored is None:
+        return []
+    made = in_sample_trial(run_dir, threads)
+    if made == stored:
+        return []
+    return [f"its in-sample best tried again walks {made}, not the {stored} summary.json stores"]
+
+
+def store_in_sample(run_dir: str, threads: int = 2) -> None:
+    """Stores a gait run's in-sample best tried again (`in_sample_trial`) as its summary's
+    `in_sample`: what the board shows as its in-sample best, and verify tries again. Its
+    training record (`best_distance_m`, `best_params.json`) stays as trained: a run
+    trained by earlier code may differ from it in the last digits, or more where the
+    physics changed since."""
+    made = in_sample_trial(run_dir, threads)
+    if made is None:
+        return
+    summary_path = os.path.join(run_dir, "summary.json")
+    runs.write_json(summary_path, {**runs.read_json(summary_path), "in_sample": made})
+
+
+def training_settings(config: dict) -> interface.OptimizerSettings:
+    """A gait run's training settings (`OptimizerSettings`) from its `config.json`: the
+    optimizer's own (CEM's elite, CMA-ES's step size) aside."""
+    names = {f.name for f in dataclasses.fields(interface.OptimizerSettings)}
+    given = config["settings"]
+    return interface.OptimizerSettings(**{k: v for k, v in given.items() if k in names})
 
 
 def history_problems(
@@ -775,25 +890,39 @@ def history_problems(
     Returns:
       The differences from what it stores (empty: none).
     """
+    return _history_scored(run_dir, summary, seeds, threads, trust_code, trusted)[1]
+
+
+def _history_scored(
+    run_dir: str,
+    summary: dict,
+    seeds: int | None,
+    threads: int,
+    trust_code: bool,
+    trusted: frozenset[str] | None,
+) -> tuple[list[tuple[int, dict, list[dict]]], list[str]]:
+    """`history_problems`, with the cards and trials it made: `([(version, card,
+    trials), ...], problems)`."""
     config = runs.read_json(os.path.join(run_dir, "config.json"))
-    problems = []
+    made, problems = [], []
     for version, kept in admission.unvouched_history(summary):
         card, trials = score_run(
             run_dir, card_settings(config, seeds, threads, kept), trust_code, trusted
         )
+        made.append((version, card, trials))
         name = history_trials_file(version)
         stored = read_trials(os.path.join(run_dir, name))
         if seeds is not None:
             wanted = {(t["tier"], t["seed"]) for t in trials}
             stored = [t for t in stored if (t["tier"], t["seed"]) in wanted]
-        if trials != stored:
-            differ = sum(a != b for a, b in zip(trials, stored))
-            problems.append(f"{differ or 'the number of'} trials differ from {name}")
+        if not admission.same_trials(trials, stored):
+            differ = admission.differing_trials(trials, stored)
+            problems.append(f"{differ} trials differ from {name}")
         # A history card is not updated when the card gains a measure (`update_cards`):
         # every value it holds must be made again, equal.
         if seeds is None and not extends(_jsonable(score.stored_card(card)), kept):
             problems.append(f"the version-{version} card differs from summary.json's history")
-    return problems
+    return made, problems
 
 
 def sample_run(
@@ -848,6 +977,7 @@ def _check_run(run_dir: str, how: dict) -> tuple[list[str], str | None]:
         name = "/".join(os.path.normpath(os.path.abspath(run_dir)).split(os.sep)[-3:])
         chosen = sample.draw(keys, how["sample"], how["entropy"], name)
         problems = sample_run(run_dir, chosen, how["threads"], how["trust_code"], how["trusted"])
+        problems += in_sample_problems(run_dir, how["threads"])
     try:
         after = admission.run_digest(run_dir)
     except (OSError, ValueError):
@@ -1045,7 +1175,7 @@ def upgrade_run(
     else:
         old_card, old_trials = score_run(run_dir, before, trust_code, trusted)
         card, trials = score_run(run_dir, after, trust_code, trusted)
-    if old_trials != read_trials(os.path.join(run_dir, "trials.csv")):
+    if not admission.same_trials(old_trials, read_trials(os.path.join(run_dir, "trials.csv"))):
         raise ValueError(f"{run_dir}: its trials under version {old} changed")
     write_trials(os.path.join(run_dir, history_trials_file(old)), old_trials)
     summary = runs.read_json(summary_path)
@@ -1322,7 +1452,8 @@ def update_cards(
     trusted: frozenset[str] | None = None,
     record: str | None = None,
 ) -> None:
-    """Re-scores every run, then stores each one's new card (`update_card`, all or nothing).
+    """Re-scores every run, then stores each one's new card and trial tables (`update_card`,
+    all or nothing).
 
     Args:
       run_dirs: Shipped runs.
@@ -1339,9 +1470,10 @@ def update_cards(
       UntrustedCode: If a policy is code not trusted (nothing is loaded or written).
     """
     require_admitted(run_dirs)
-    cards = [(run_dir, fresh_card(run_dir, threads, trust_code, trusted)) for run_dir in run_dirs]
-    for run_dir, card in cards:
-        _store_card(run_dir, card)
+    made = [(run_dir, fresh_scoring(run_dir, threads, trust_code, trusted)) for run_dir in run_dirs]
+    for run_dir, (test, history) in made:
+        _store_scoring(run_dir, test, history)
+        store_in_sample(run_dir, threads)
         if record:
             write_ledger(record, {run_dir: []})
         progress.write(f"card updated: {run_dir}")
