@@ -240,9 +240,19 @@ def amplitudes_from(params) -> np.ndarray:
 
 
 def load_amplitudes(path: str) -> np.ndarray:
-    """Reads a JSON file holding the 11 amplitudes by name (or a list, or {"amplitudes": ...})."""
+    """Reads a JSON file holding the 11 amplitudes by name (or a list, or {"amplitudes": ...}).
+
+    Raises:
+      ValueError: On a file that is not JSON, or not a valid parameter file
+        (`feedback.params_problem`'s line: the open-loop and feedback files are one format).
+    """
+    from cpg_suite import feedback  # imports this module
+
     with open(path, encoding="utf-8") as f:
         data = json.load(f)
+    problem = feedback.params_problem(data)
+    if problem:
+        raise ValueError(problem)
     if isinstance(data, dict) and "amplitudes" in data:
         data = data["amplitudes"]
     return amplitudes_from(data)

@@ -48,7 +48,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from cpg_suite import cpg, electrical, protocol
+from cpg_suite import cpg, electrical, feedback, protocol
 from cpg_suite.protocol import card as card_stats
 from cpg_suite.protocol import copies, files, sample
 
@@ -574,7 +574,9 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
         if reason:
             return reason
     if artifact_files(run_dir) == (GAIT,):
-        files.read_json(os.path.join(run_dir, GAIT))  # strict, as every run file
+        reason = gait_refusal(os.path.join(run_dir, GAIT))
+        if reason:
+            return reason
     # The board's card first (its reason is the one a reader of that board needs), then
     # every other card the run holds: the board ranks one, the others rank elsewhere.
     order = sorted(cards, key=lambda v: (v != version, -v))
@@ -600,6 +602,14 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
             f"({int(match['seed'])})"
         )
     return None
+
+
+def gait_refusal(path: str) -> str | None:
+    """Why a run's gait file (`GAIT`) is not a valid parameter file (None: it is one): read
+    strictly, as every run file (`files.read_json`), then `feedback.params_problem` (finite
+    JSON numbers within physical bounds, the names it needs and no others)."""
+    problem = feedback.params_problem(files.read_json(path))
+    return f"{GAIT}: {problem}" if problem else None
 
 
 def _card_refusal(

@@ -771,8 +771,9 @@ def main(argv):
             amplitudes = feedback.start_params(flags.FLAGS.params)  # a preset, gains 0
         else:
             amplitudes = gait.parse_params(flags.FLAGS.params)
-    except (ValueError, json.JSONDecodeError) as e:
-        raise cli.UsageError(f"--params {flags.FLAGS.params}: {e}") from None
+    except (ValueError, json.JSONDecodeError) as e:  # one line, exit 2, before any scoring
+        said = str(e) if str(e).startswith("--params") else f"--params {flags.FLAGS.params}: {e}"
+        raise cli.UsageError(said) from None
     card = {"params": flags.FLAGS.params, **score_gait(amplitudes, settings)}
     print(format_card(card))
     if flags.FLAGS.out:
