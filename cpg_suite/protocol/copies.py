@@ -17,10 +17,33 @@ A run's fingerprint holds
 
 Padding in a `.npy` header, a trailing `0` in a CSV number, keys reordered or spaces added
 in JSON, a comment added to code: the values stay, and so does the copy. The tolerances
-catch what the bytes hide too — a gait nudged by up to 2 % and scored again is the same
-gait. They are choices, below what separates two honest seeds: a test checks that the
-shipped runs of one trained version lie at least 1000 times the trial tolerance and 5
-times the value tolerance apart (`closest_pairs`).
+catch what the bytes hide too — a gait nudged by up to 2 % of its largest amplitude and
+scored again is the same gait.
+
+Near-copies, value by value (`near_copy`): two artifacts of one structure are also one
+when, comparing each value with its counterpart relative to the larger of the two
+(`coordinate_differences`; values both within `VALUE_RTOL` of zero, such as an open-loop
+gait's absent gains, are left out), at least half lie within `HALF_RTOL` (1 %) or all lie
+within `ALL_RTOL` (5 %). The first catches a copy with a minority of its values changed by
+any amount — one amplitude times 1.025 (which `VALUE_RTOL` misses when that amplitude is
+among the largest), a sign flipped, two values swapped; the second a copy with every
+value nudged by up to 5 %. Honest seeds lie apart: of the 895 pairs of shipped gaits
+trained alike, same configuration or not, the closest have half their values 3.1 % apart
+(CEM version-1 seeds 0 and 5; the next 6.0 %) and none has all its values within 25.7 %
+(CEM seeds 2 and 4); the 96 policy pairs lie 53 % and 200 % apart.
+
+What no rule on values catches: a copy with more than half its values moved by over 1 %
+and one of its largest by over 5 % (six of a gait's eleven amplitudes times 1.011, its
+largest of them times 1.06), or every value by over 5 %; a gait permuted or mirrored as
+a whole (another gait by value, though one that walks at all is unlikely); a network's
+hidden units permuted consistently across its layers (the same policy, other values:
+caught only if its trials come out equal); and a copy trained a little further from
+where it stood. The thresholds only make such copies move further; only re-training a run
+from its config and seed shows where a gait came from.
+
+The tolerances are choices, below what separates two honest seeds: a test checks that
+the shipped runs of one trained version lie at least 1000 times the trial tolerance,
+5 times `VALUE_RTOL`, 3 times `HALF_RTOL` and 5 times `ALL_RTOL` apart (`closest_pairs`).
 
 Nothing here executes code: JSON and CSV are parsed, NumPy arrays are read with
 `allow_pickle=False`, Python is parsed with `ast`, pickles are hashed.
@@ -52,6 +75,18 @@ TRIAL_TOLERANCE_M = 1e-3
 # scored again as a seed, is the same gait).
 VALUE_RTOL = 2e-2
 VALUE_ATOL = 1e-12
+# Per value, relative to the larger magnitude of its pair (`coordinate_differences`): two
+# artifacts at least half of whose values lie this close are one (a choice: the closest
+# two shipped gaits trained alike have half their values 3.11 % apart, CEM version-1 seeds
+# 0 and 5 — 3.1 times above; the next pair 6.0 %, CEM seeds 0 and 4 of both versions 6.4 %;
+# two shipped policies 53 %). Catches a copy with fewer than half its values changed, by
+# any amount.
+HALF_RTOL = 1e-2
+# Per value, as `HALF_RTOL`: two artifacts all of whose values lie this close are one (a
+# choice: every two shipped gaits trained alike have a value 25.7 % or more apart, CEM
+# seeds 2 and 4 — 5.1 times above; policies 200 %). Catches a copy with every value
+# nudged by up to 5 %.
+ALL_RTOL = 5e-2
 
 
 @dataclasses.dataclass(frozen=True)
@@ -179,7 +214,44 @@ def same_artifact(a: Fingerprint, b: Fingerprint) -> bool:
         return False
     if a.values is None:
         return True
-    return value_distance(a.values, b.values) <= VALUE_RTOL
+    return value_distance(a.values, b.values) <= VALUE_RTOL or near_copy(a.values, b.values)
+
+
+def coordinate_differences(xs: tuple, ys: tuple) -> np.ndarray:
+    """Each value's difference from its counterpart relative to the larger magnitude of the
+    two (0 where equal, 2 for a sign flipped; inf for a NaN or infinity against another
+    value), over the values not both within `VALUE_RTOL` of zero as `value_distance`
+    scales them (an open-loop gait's absent gains, a policy's all-zero bias: left out).
+
+    Args:
+      xs, ys: Float arrays, pairwise of one shape.
+    """
+    magnitudes = [(np.abs(x), np.abs(y)) for x, y in zip(xs, ys)]
+    scales = [
+        max((float(np.max(np.where(np.isfinite(m), m, 0.0))) for m in pair if m.size), default=0.0)
+        for pair in magnitudes
+    ]
+    floor = float(np.median(scales)) if scales else 0.0
+    kept = []
+    for x, y, (mx, my), scale in zip(xs, ys, magnitudes, scales):
+        negligible = VALUE_RTOL * max(scale, floor)
+        counted = ~((mx <= negligible) & (my <= negligible))  # NaN: counted
+        same = (x == y) | (np.isnan(x) & np.isnan(y))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            share = np.abs(x - y) / np.maximum(mx, my)
+        share = np.where(same, 0.0, np.where(np.isfinite(share), share, np.inf))
+        kept.append(share[counted])
+    return np.concatenate(kept) if kept else np.zeros(0)
+
+
+def near_copy(xs: tuple, ys: tuple) -> bool:
+    """Whether at least half of two artifacts' values lie within `HALF_RTOL` of their
+    counterparts, or all within `ALL_RTOL` (`coordinate_differences`; no value left: both
+    are zero, which `value_distance` tells)."""
+    shares = coordinate_differences(xs, ys)
+    if not shares.size:
+        return False
+    return bool(np.mean(shares <= HALF_RTOL) >= 0.5 or np.max(shares) <= ALL_RTOL)
 
 
 def value_distance(xs: tuple, ys: tuple) -> float:
@@ -232,20 +304,27 @@ def started(run_dir: str) -> str:
     return value if isinstance(value, str) else "~"
 
 
-def closest_pairs(prints: dict[str, Fingerprint]) -> tuple[float, float]:
-    """The smallest trial-table and gait-or-policy distance between two runs of `prints`
-    (max absolute distance difference over trials with equal outcomes, m; `value_distance`
-    between two artifacts of one structure): how far the tolerances lie from honest runs.
+def closest_pairs(prints: dict[str, Fingerprint]) -> tuple[float, float, float, float]:
+    """The smallest trial-table and gait-or-policy distances between two runs of `prints`
+    (max absolute distance difference over trials with equal outcomes, m; between two
+    artifacts of one structure, `value_distance` and the median and largest of
+    `coordinate_differences`): how far the tolerances lie from honest runs.
 
     Returns:
-      `(trials_m, values_rel)`; inf where no two runs are comparable.
+      `(trials_m, values_rel, half_rel, all_rel)`, to hold against `TRIAL_TOLERANCE_M`,
+      `VALUE_RTOL`, `HALF_RTOL` and `ALL_RTOL`; inf where no two runs are comparable.
     """
     items = list(prints.values())
-    trials_m, values_rel = np.inf, np.inf
+    trials_m = values_rel = half_rel = all_rel = np.inf
     for i, a in enumerate(items):
         for b in items[i + 1 :]:
             if a.outcomes == b.outcomes:
                 trials_m = min(trials_m, float(np.max(np.abs(a.distances - b.distances))))
             if a.values is not None and (a.kind, a.structure) == (b.kind, b.structure):
                 values_rel = min(values_rel, value_distance(a.values, b.values))
-    return trials_m, values_rel
+                shares = coordinate_differences(a.values, b.values)
+                if shares.size:
+                    # the share at or under which half the values lie (`near_copy`'s test)
+                    half_rel = min(half_rel, float(np.sort(shares)[(shares.size - 1) // 2]))
+                    all_rel = min(all_rel, float(np.max(shares)))
+    return trials_m, values_rel, half_rel, all_rel
