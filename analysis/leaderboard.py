@@ -396,6 +396,11 @@ def _trained_as(version: int | None) -> int | None:
     return protocol.trained_alike(version)
 
 
+# A configuration whose policy is code the project has not vetted (`admission.unvetted_code`):
+# listed, not ranked (its card on the public test seeds may be a replay of them).
+CODE_STATUS = "code"
+
+
 def _status(track: str, trained: int | None, version: int, complete: bool) -> str:
     """A configuration's standing on the board of `version` (docs/protocol.md#ranking):
     "reference" (a preset: no training), "trained_v<n>" (trained under an earlier version
@@ -426,6 +431,8 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
     tiers = protocol.tiers(version)
     complete = len(summaries) >= MIN_SEEDS and all(set(tiers) <= set(t["tiers"]) for t in tests)
     status = _status(track, trained, version, complete)
+    if status in ("ranked", "provisional") and any(s.get("_unvetted_code") for s in summaries):
+        status = CODE_STATUS
     ranked = status == "ranked"
     row = {
         "benchmark_version": version,
@@ -571,7 +578,8 @@ def _checked(run: dict) -> dict:
     trial table holds the trials' measures (`admission.verified_summary`)."""
     if run["method"] == PRESET_METHOD:
         return run
-    return {**run, "summary": admission.verified_summary(run["dir"], run["summary"])}
+    summary = admission.verified_summary(run["dir"], run["summary"])
+    return {**run, "summary": {**summary, "_unvetted_code": admission.unvetted_code(run["dir"])}}
 
 
 def darwin_board(found: list[dict], version: int | None = None) -> tuple[list[dict], list[dict]]:

@@ -690,3 +690,28 @@ def test_a_card_whose_table_holds_no_measures_shows_none_on_the_board(tmp_path):
     (row,) = leaderboard.darwin_rows(admitted)
     assert all(row[q] == "" for q in leaderboard.QUALITY)
     assert row["test_score_m"] != ""  # its outcomes are on the board
+
+
+def test_a_configuration_whose_policy_is_code_is_listed_not_ranked(tmp_path):
+    """A policy that is code can tell a public test trial from its first observation and
+    replay it in its own simulator (docs/protocol.md#data-and-code): five admitted seeds
+    of such a policy are listed as "code", not ranked; the same runs as data are ranked."""
+    runs = tmp_path / "runs"
+    source = os.path.join(RUNS, "ppo", "darwin_walk")
+    for seed in range(5):
+        run = _copy(runs, f"joints_seed{seed}", os.path.join(source, f"joints_seed{seed}"), "ppo")
+    found, _ = leaderboard.find_runs(str(runs))
+    (row,) = leaderboard.darwin_rows(leaderboard.admit(found)[0])
+    assert row["status"] == "ranked"
+    for seed in range(5):
+        run = runs / "ppo" / "darwin_walk" / f"joints_seed{seed}"
+        (run / "selected_policy.npz").unlink()
+        (run / "policy_code.py").write_text(
+            f"import numpy as np\n\n\ndef make_policy():\n    return lambda o: np.full(12, {seed})\n"
+        )
+    found, _ = leaderboard.find_runs(str(runs))
+    admitted, refused = leaderboard.admit(found)
+    assert refused == [] and all(admission.unvetted_code(r["dir"]) for r in admitted)
+    (row,) = leaderboard.darwin_rows(admitted)
+    assert row["status"] == leaderboard.CODE_STATUS and row["rank"] == ""
+    assert row["test_score_m"] != ""  # listed with its card

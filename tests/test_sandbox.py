@@ -3,6 +3,10 @@ process it finds no frames, objects, globals or files that tell the trial; an ho
 keeps its trials bit for bit; counting trials tells it nothing."""
 
 import os
+import shutil
+import subprocess
+import sys
+import tempfile
 import textwrap
 import time
 
@@ -11,6 +15,8 @@ import pytest
 
 from cpg_suite import cpg
 from cpg_suite.protocol import sandbox, score
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 HONEST = """
 import numpy as np
@@ -365,3 +371,68 @@ def test_a_process_that_left_the_group_does_not_hold_close_up(tmp_path):
     start = time.monotonic()
     policy.close()
     assert time.monotonic() - start < 15
+
+
+def test_the_scorer_is_not_dumpable_once_a_policy_runs(tmp_path):
+    """`IsolatedPolicy` makes its scorer non-dumpable before the code starts (in a process of
+    its own here: it lasts for the process)."""
+    path = tmp_path / "policy_code.py"
+    path.write_text(
+        "import numpy as np\n\n\ndef make_policy():\n    return lambda o: np.zeros(12)\n"
+    )
+    script = (
+        "import ctypes\n"
+        "from cpg_suite.protocol import sandbox\n"
+        "get = lambda: ctypes.CDLL(None).prctl(3, 0, 0, 0, 0)  # PR_GET_DUMPABLE\n"
+        "before = get()\n"
+        f"policy = sandbox.IsolatedPolicy({str(path)!r})\n"
+        "print(before, get())\n"
+        "policy.close()\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, check=True, cwd=ROOT
+    )
+    assert done.stdout.split() == ["1", "0"]
+
+
+# An unprivileged child rewrites its parent's memory through /proc where the kernel lets it
+# (no Yama, as on the review's machine), unless the parent is non-dumpable. Standard
+# library only: run as the nobody user with the system's Python.
+_PARENT_MEMORY = """
+import ctypes, subprocess, sys
+if sys.argv[1] == "guarded":
+    assert ctypes.CDLL(None, use_errno=True).prctl(4, 0, 0, 0, 0) == 0
+buf = ctypes.create_string_buffer(b"HONEST__", 8)
+child = (
+    "import os, sys\\n"
+    "try:\\n"
+    f"    f = open('/proc/{__import__('os').getpid()}/mem', 'r+b', buffering=0)\\n"
+    f"    f.seek({ctypes.addressof(buf)}); f.write(b'FORGED!!')\\n"
+    "except OSError:\\n"
+    "    pass\\n"
+)
+subprocess.run([sys.executable, "-c", child], start_new_session=True)
+print(buf.raw.decode())
+"""
+
+
+@pytest.mark.skipif(
+    os.geteuid() != 0 or not shutil.which("setpriv") or not os.path.exists("/usr/bin/python3"),
+    reason="needs root to become the nobody user (setpriv) and the system's python3",
+)
+def test_a_non_dumpable_process_keeps_its_memory_from_its_unprivileged_child():
+    nobody = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "--inh-caps=-all"]
+    with tempfile.TemporaryDirectory() as folder:  # one the nobody user can read
+        os.chmod(folder, 0o755)
+        script = os.path.join(folder, "parent.py")
+        with open(script, "w", encoding="utf-8") as f:
+            f.write(_PARENT_MEMORY)
+        os.chmod(script, 0o644)
+        said = {
+            how: subprocess.run(
+                [*nobody, "/usr/bin/python3", script, how], capture_output=True, text=True
+            ).stdout.strip()
+            for how in ("open", "guarded")
+        }
+    assert said["guarded"] == "HONEST__"
+    assert said["open"] in ("HONEST__", "FORGED!!")  # FORGED!! where the kernel lets it

@@ -65,11 +65,73 @@ ARTIFACTS = ((EXPORTED,), (SB3_MODEL, SB3_NORMALIZER), (ACTIONS,), (CODE,), (GAI
 # Those that run code when loaded: a Python file, and the pickles of an SB3 policy. The
 # others are data (JSON, NumPy arrays read without unpickling).
 CODE_FILES = (CODE, SB3_MODEL, SB3_NORMALIZER)
+# The project's list of trusted pickles, shipped inside the package (never read from the
+# working directory): the SHA-256 and path of every Stable-Baselines3 file of its shipped
+# runs, as `sha256sum` writes them (`verify --write_trusted` makes it; in a checkout,
+# `sha256sum -c cpg_suite/data/trusted_pickles.txt` checks it).
+TRUSTED_LIST = os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data", "trusted_pickles.txt"
+)
+_TRUSTED_LINE = re.compile(r"^(?P<digest>[0-9a-f]{64}) [ *](?P<path>.+)$")
 # A gait run's in-sample best (its best training trial's gait, the round that found it and
 # what it walked there): what the board's in-sample column shows, and verify tries again.
 IN_SAMPLE = "best_params.json"
 # A run folder's name: `<config>_seed<S>` (the configuration's name less its seed).
 SEED_NAME = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
+
+
+def file_digest(path: str) -> str:
+    """The SHA-256 of a file, as hex digits."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def trusted_digests(path: str | None = None) -> frozenset[str]:
+    """The SHA-256 digests of the trusted pickles (`TRUSTED_LIST`).
+
+    Args:
+      path: The list (None: the package's, `TRUSTED_LIST`).
+
+    Returns:
+      The digests; none if the list does not exist.
+
+    Raises:
+      ValueError: On a line that is not `<sha256>  <path>`.
+    """
+    path = TRUSTED_LIST if path is None else path
+    if not os.path.isfile(path):
+        return frozenset()
+    digests = set()
+    with open(path, encoding="utf-8") as f:
+        for number, line in enumerate(f, 1):
+            match = _TRUSTED_LINE.match(line.rstrip("\n"))
+            if not match:
+                raise ValueError(f"{path}:{number} is not '<sha256>  <path>'")
+            digests.add(match["digest"])
+    return frozenset(digests)
+
+
+def unvetted_code(run_dir: str, trusted: frozenset[str] | None = None) -> bool:
+    """Whether a run's policy is code the project has not vetted: a `policy_code.py`, or
+    Stable-Baselines3 pickles not all in the package's trusted list. Such a policy can
+    tell which public test trial it is in from its first observation and replay the
+    trial in its own simulator (docs/protocol.md#data-and-code: measured 1.42 m → 4.66
+    m on 10 trials), so the board lists its configuration without ranking it.
+
+    Args:
+      run_dir: A run folder.
+      trusted: The trusted digests (None: the package's list).
+    """
+    names = artifact_files(run_dir)
+    if not names or names[0] not in CODE_FILES:
+        return False
+    if names == (CODE,):
+        return True
+    trusted = trusted_digests() if trusted is None else trusted
+    return any(file_digest(os.path.join(run_dir, n)) not in trusted for n in names)
 
 
 def artifact_files(run_dir: str) -> tuple[str, ...]:

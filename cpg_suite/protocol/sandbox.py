@@ -9,12 +9,12 @@ process, that code could walk its caller's frames to the physics, the tier and t
   what fixes its arithmetic) executes the file and calls `make_policy()` once;
 * for each trial (`reset()`, or `reset_batch(n)` for a batch of trials) it forks a trial
   process from that state, which answers the trial's observations with actions and ends
-  with it: nothing a trial did is seen by the next;
+  with it: nothing a trial keeps in its own memory reaches the next (state shared before
+  the fork can: below);
 * the scorer sends each observation as arrays of bytes and reads the action back as
   float64 values (`_send`, `_receive`); nothing else crosses, and the trials (and tiers)
   run in an order drawn afresh at each scoring (`trial_order`), so that a policy counting
-  its trials (through a file, or memory shared before the fork) learns nothing of which
-  one it is in.
+  its trials learns nothing of their order (it can still recognise a trial: below).
 
 A policy that computes in its own process sees only the observations; its actions come
 back as the same float64 values, so an honest policy's card is the same, bit for bit
@@ -25,16 +25,23 @@ counters. The policy may read files (no seed or state of a trial is written to o
 writes none: its process and all it starts have a file size limit of 0 (so it cannot
 rewrite its run's card, trials or the ledger after `verify` checked them), and `close`
 ends its whole process group. `verify` also compares a run's files before and after its
-check and records the digest it checked. It is not an operating-system sandbox: the
-kernel keeps an unprivileged user's process from reading its parent's memory (ptrace
-rules) or raising its limits, but a process running as root may do both, and a process
-that leaves its group (`setsid`) outlives `close`; run `verify` as an unprivileged user,
-or in a container, where that matters (docs/protocol.md#data-and-code).
+check and records the digest it checked. The scorer makes itself non-dumpable before the
+policy starts (`keep_memory_private`), so that an unprivileged policy cannot read or
+rewrite its memory through `/proc` even where the kernel's ptrace rules would let it (no
+Yama). It is not an operating-system sandbox: a process running as root may read any
+memory and raise its limits; a process that leaves its group (`setsid`) outlives
+`close`; and a policy can carry state from one trial to the next (memory shared before
+the fork, a helper process, names made in the file system) and, above all, tell a public
+test trial from its first observation and replay it in its own simulator — which is why
+the board lists a policy that is code without ranking it (`admission.unvetted_code`,
+docs/protocol.md#data-and-code). Run `verify` as an unprivileged user, or in a
+container, where that matters.
 """
 
 from __future__ import annotations
 
 import collections
+import ctypes
 import hashlib
 import importlib.util
 import json
@@ -150,6 +157,7 @@ class IsolatedPolicy:
     """
 
     def __init__(self, path: str):
+        keep_memory_private()
         self._folder = tempfile.TemporaryDirectory(prefix="policy-")
         environment = {k: os.environ[k] for k in _ENVIRONMENT if k in os.environ}
         self._process = subprocess.Popen(
@@ -247,6 +255,28 @@ class IsolatedPolicy:
             self.close()
         except Exception:
             pass
+
+
+_PR_SET_DUMPABLE = 4  # prctl(2), linux/prctl.h
+
+
+def keep_memory_private() -> None:
+    """Makes the scorer's process non-dumpable (`prctl(PR_SET_DUMPABLE, 0)`) before a
+    policy's code starts: a process of the same user without CAP_SYS_PTRACE then cannot
+    open its `/proc/<pid>/mem`, `environ`, `maps` or `fd`, which a kernel without Yama
+    (ptrace_scope absent or 0) otherwise lets a child do: a policy rewrote its scorer's
+    memory so (outside review, 2026-11-28; `tests/test_sandbox.py`). This lasts for the
+    process (it is not undone when the policy closes: its process may outlive `close`),
+    and is done only where code is trusted to run; it does nothing where prctl is not
+    (not Linux), and nothing against root.
+    """
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        prctl = libc.prctl
+    except (OSError, AttributeError):
+        return
+    if prctl(_PR_SET_DUMPABLE, 0, 0, 0, 0) != 0:
+        raise OSError(ctypes.get_errno(), "prctl(PR_SET_DUMPABLE, 0) failed")
 
 
 def _act(policy, observations: dict, batched: bool) -> np.ndarray:

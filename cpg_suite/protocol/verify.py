@@ -66,11 +66,9 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 import concurrent.futures
 import contextlib
 import dataclasses
-import hashlib
 import json
 import multiprocessing
 import os
-import re
 import shutil
 from collections.abc import Callable
 
@@ -98,9 +96,7 @@ QUICK_SEEDS = 5  # test seeds per tier in a quick verification
 # working directory): the SHA-256 and path of every Stable-Baselines3 file under
 # `ARTIFACTS`, as `sha256sum` writes them (in a checkout, `sha256sum -c
 # cpg_suite/data/trusted_pickles.txt` checks it). `--trusted_list=PATH` names another.
-TRUSTED_LIST = os.path.join(
-    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data", "trusted_pickles.txt"
-)
+TRUSTED_LIST = admission.TRUSTED_LIST
 TRUSTED_NAME = "cpg_suite/data/trusted_pickles.txt"  # how messages name it
 _CHECKOUT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -111,7 +107,6 @@ def repository() -> str:
     return _CHECKOUT
 
 
-_TRUSTED_LINE = re.compile(r"^(?P<digest>[0-9a-f]{64}) [ *](?P<path>.+)$")
 SB3_FILES = (admission.SB3_MODEL, admission.SB3_NORMALIZER)
 
 
@@ -139,38 +134,8 @@ def run_folders(root: str) -> list[str]:
     return sorted(dirpath for dirpath, _, names in os.walk(root) if marks & set(names))
 
 
-def file_digest(path: str) -> str:
-    """The SHA-256 of a file, as hex digits."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def trusted_digests(path: str | None = None) -> frozenset[str]:
-    """The SHA-256 digests of the trusted pickles (`TRUSTED_LIST`).
-
-    Args:
-      path: The list (None: the package's, `TRUSTED_LIST`).
-
-    Returns:
-      The digests; none if the list does not exist.
-
-    Raises:
-      ValueError: On a line that is not `<sha256>  <path>`.
-    """
-    path = TRUSTED_LIST if path is None else path
-    if not os.path.isfile(path):
-        return frozenset()
-    digests = set()
-    with open(path, encoding="utf-8") as f:
-        for number, line in enumerate(f, 1):
-            match = _TRUSTED_LINE.match(line.rstrip("\n"))
-            if not match:
-                raise ValueError(f"{path}:{number} is not '<sha256>  <path>'")
-            digests.add(match["digest"])
-    return frozenset(digests)
+file_digest = admission.file_digest
+trusted_digests = admission.trusted_digests
 
 
 def trusted_artifacts_text(artifacts: str | None = None, root: str | None = None) -> str:
