@@ -707,7 +707,8 @@ def test_a_configuration_whose_policy_is_code_is_listed_not_ranked(tmp_path):
         run = runs / "ppo" / "darwin_walk" / f"joints_seed{seed}"
         (run / "selected_policy.npz").unlink()
         (run / "policy_code.py").write_text(
-            f"import numpy as np\n\n\ndef make_policy():\n    return lambda o: np.full(12, {seed})\n"
+            "import numpy as np\n\n\ndef make_policy():\n"
+            f"    return lambda o: np.full(12, {seed})\n"
         )
     found, _ = leaderboard.find_runs(str(runs))
     admitted, refused = leaderboard.admit(found)
@@ -715,3 +716,39 @@ def test_a_configuration_whose_policy_is_code_is_listed_not_ranked(tmp_path):
     (row,) = leaderboard.darwin_rows(admitted)
     assert row["status"] == leaderboard.CODE_STATUS and row["rank"] == ""
     assert row["test_score_m"] != ""  # listed with its card
+
+
+def test_the_in_sample_best_on_the_board_is_what_verify_makes_again(tmp_path):
+    """The board's in-sample column is `in_sample`: best_params.json tried again on its
+    round's training seeds. A forged value (the 9.9 m that passed before) is refused by
+    no file check but differs in every check verify makes (full, quick or sampled); the
+    training record must agree with best_params.json; an in_sample without its gait, or
+    not a trial's record, is refused."""
+    runs = tmp_path / "runs"
+    run = _copy(runs, "K50_seed0")
+    verify.store_in_sample(str(run), threads=1)
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["in_sample"]["distance_m"] == summary["best_distance_m"]  # trained here
+    assert verify.in_sample_problems(str(run), threads=1) == []
+    assert admission.run_refusal(str(run)) is None
+    summary["in_sample"]["distance_m"] = 9.9
+    _store(run, summary)
+    assert admission.run_refusal(str(run)) is None  # the files hold together...
+    (problem,) = verify.in_sample_problems(str(run), threads=1)  # ...the simulation does not
+    assert problem.startswith("its in-sample best tried again walks {'distance_m': 3.129")
+    found, _ = leaderboard.find_runs(str(runs))
+    (row,) = leaderboard.darwin_rows(leaderboard.admit(found)[0])
+    assert row["in_sample_best_m"] == 9.9  # what CI's sampled check then refuses
+    forged = {
+        "best_distance_m": (lambda s: s.update(best_distance_m=9.9), "best_distance_m 9.9"),
+        "int": (lambda s: s["in_sample"].update(distance_m=3), "not a trial's finite"),
+        "extra": (lambda s: s["in_sample"].update(round=3), "not a trial's finite"),
+    }
+    for name, (change, words) in forged.items():
+        copy = _copy(runs, f"K50_{name}_seed0", source=run)
+        summary = json.loads((copy / "summary.json").read_text())
+        change(summary)
+        _store(copy, summary)
+        assert words in admission.run_refusal(str(copy))
+    (run / "best_params.json").unlink()
+    assert "no best_params.json" in admission.run_refusal(str(run))
