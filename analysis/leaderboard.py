@@ -267,28 +267,10 @@ def leaderboard_rows(found: list[dict]) -> list[dict]:
 
 
 TIERS = protocol.TIERS  # every version's tiers; a board of version v ranks `protocol.tiers(v)`
-# The card's gait-quality fields shown on the board (cpg_suite.evaluation.quality.FIELDS
-# defines them; analysis imports no simulation-side module, so tests/test_leaderboard.py
-# checks that these are its names and that every electrical field is shown).
-QUALITY = (
-    "cost_of_transport",
-    "slip_per_m",
-    "torque_limit_share",
-    "peak_joint_speed",
-    "electrical_power_w",
-    "energy_per_m",
-    "supply_current_a",
-    "supply_peak_1s_a",
-    "rms_torque_ratio",
-    "copper_loss_ratio",
-    # How the feet meet the floor (`cpg_suite.evaluation.footing.FIELDS`, named here:
-    # analysis imports no simulation code; tests/test_leaderboard.py keeps them equal).
-    "contact_slip_per_m",
-    "flat_stance_share",
-    "swing_clearance_m",
-    "toe_strike_share",
-    "heel_strike_share",
-)
+# The card's gait-quality fields shown on the board (`admission.BOARD_MEASURES`: a table
+# that holds measures holds these; tests/test_leaderboard.py checks them against
+# cpg_suite.evaluation.quality.FIELDS).
+QUALITY = admission.BOARD_MEASURES
 # Budget tracks (docs/protocol.md#ranking): the study's budget is at most 2,501 training
 # trials (K = 50 for 50 rounds, plus the start) or 2.5 M training control steps (PPO).
 STUDY_TRIALS, STUDY_CONTROL_STEPS = 2501, 2_500_000

@@ -752,3 +752,23 @@ def test_the_in_sample_best_on_the_board_is_what_verify_makes_again(tmp_path):
         assert words in admission.run_refusal(str(copy))
     (run / "best_params.json").unlink()
     assert "no best_params.json" in admission.run_refusal(str(run))
+
+
+def test_a_test_card_that_leaves_out_a_measure_the_board_shows_is_refused(tmp_path):
+    """Dropping supply_current_a from the card and its table (consistently) would blank
+    the board's column for the configuration: refused for the test card (a card kept as
+    history holds the measures of its day)."""
+    runs = tmp_path / "runs"
+    run = _copy(runs, "K50_seed0")
+    summary = _with_measures(run)
+    rows = _rows(run)
+    for r in rows:
+        r.pop("supply_current_a")
+    _write_rows(run, rows)
+    for row in [summary["test"]["all"], *summary["test"]["tiers"].values()]:
+        row["quality"].pop("supply_current_a")
+    _store(run, summary)
+    assert admission.run_refusal(str(run)) == (
+        "its trial table holds gait-quality measures but not 'supply_current_a', which the "
+        "board shows"
+    )

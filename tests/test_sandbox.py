@@ -436,3 +436,25 @@ def test_a_non_dumpable_process_keeps_its_memory_from_its_unprivileged_child():
         }
     assert said["guarded"] == "HONEST__"
     assert said["open"] in ("HONEST__", "FORGED!!")  # FORGED!! where the kernel lets it
+
+
+def test_verify_with_trusted_code_makes_itself_and_its_workers_non_dumpable(tmp_path):
+    """With several jobs the policies run under worker processes: the process that gathers
+    and records the results, and every worker, are non-dumpable before any code runs."""
+    run = tmp_path / "my_method" / "darwin_walk" / "code_seed0"
+    run.mkdir(parents=True)
+    (run / "policy_code.py").write_text("def make_policy():\n    return None\n")
+    script = (
+        "from cpg_suite.protocol import sandbox, verify\n"
+        "if __name__ == '__main__':\n"
+        f"    with verify._pool(2, [{str(run)!r}], trust_code=False) as pool:\n"
+        "        print(sandbox.dumpable(), pool.submit(sandbox.dumpable).result())\n"
+        f"    with verify._pool(2, [{str(run)!r}], trust_code=True) as pool:\n"
+        "        print(sandbox.dumpable(), pool.submit(sandbox.dumpable).result())\n"
+    )
+    path = tmp_path / "check.py"
+    path.write_text(script)
+    done = subprocess.run(
+        [sys.executable, str(path)], capture_output=True, text=True, check=True, cwd=ROOT
+    )
+    assert done.stdout.split() == ["True", "True", "False", "False"]

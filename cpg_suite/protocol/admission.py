@@ -73,9 +73,30 @@ TRUSTED_LIST = os.path.join(
     os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data", "trusted_pickles.txt"
 )
 _TRUSTED_LINE = re.compile(r"^(?P<digest>[0-9a-f]{64}) [ *](?P<path>.+)$")
-# A gait run's in-sample best (its best training trial's gait, the round that found it and
-# what it walked there): what the board's in-sample column shows, and verify tries again.
-IN_SAMPLE = "best_params.json"
+# The gait-quality measures the board shows (`analysis.leaderboard.QUALITY`;
+# cpg_suite.evaluation.quality.FIELDS defines them: this module imports no simulation code,
+# and tests/test_leaderboard.py checks that these are its names and that every electrical
+# field is shown). A trial table that holds measures holds at least these.
+BOARD_MEASURES = (
+    "cost_of_transport",
+    "slip_per_m",
+    "torque_limit_share",
+    "peak_joint_speed",
+    "electrical_power_w",
+    "energy_per_m",
+    "supply_current_a",
+    "supply_peak_1s_a",
+    "rms_torque_ratio",
+    "copper_loss_ratio",
+    # How the feet meet the floor (`cpg_suite.evaluation.footing.FIELDS`, named here:
+    # admission imports no simulation code; tests/test_leaderboard.py keeps them equal).
+    "contact_slip_per_m",
+    "flat_stance_share",
+    "swing_clearance_m",
+    "toe_strike_share",
+    "heel_strike_share",
+)
+IN_SAMPLE = copies.IN_SAMPLE  # a gait run's in-sample best: its gait and training record
 # A run folder's name: `<config>_seed<S>` (the configuration's name less its seed).
 SEED_NAME = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
 
@@ -263,13 +284,17 @@ def _card_row(trials: list[dict], steps: int) -> dict:
     return card_stats.row(distance, fell, {}, cause, steps)
 
 
-def trials_refusal(card: dict, trials: list[dict], steps: int) -> str | None:
+def trials_refusal(
+    card: dict, trials: list[dict], steps: int, measures: tuple[str, ...] = BOARD_MEASURES
+) -> str | None:
     """Why a trial table does not stand behind a card (None: it produces it).
 
     Args:
       card: The stored card (`tiers`, `all`, `scoring_sim_steps`).
       trials: Its trial table (`read_trials`).
       steps: Control steps per trial (the run's `trial_steps`).
+      measures: The gait-quality measures a table that holds any must hold (a card kept
+        as history holds those of its day: none required).
 
     Returns:
       A one-line reason, or None.
@@ -309,7 +334,7 @@ def trials_refusal(card: dict, trials: list[dict], steps: int) -> str | None:
                     f"{steps} (config.json)"
                 )
             return f"its trial table does not produce the card ({name}: speed_m_s differs)"
-    reason = quality_refusal(card, trials)
+    reason = quality_refusal(card, trials, measures)
     if reason:
         return reason
     bound = len(trials) * steps * card_stats.PHYSICS_STEPS_PER_CONTROL_STEP
@@ -322,7 +347,9 @@ def trials_refusal(card: dict, trials: list[dict], steps: int) -> str | None:
     return None
 
 
-def quality_refusal(card: dict, trials: list[dict]) -> str | None:
+def quality_refusal(
+    card: dict, trials: list[dict], measures: tuple[str, ...] = BOARD_MEASURES
+) -> str | None:
     """Why a trial table's gait-quality measures do not stand behind its card (None: they
     do, or the table holds none: then the card's medians are not the board's,
     `verified_summary`).
@@ -335,6 +362,7 @@ def quality_refusal(card: dict, trials: list[dict]) -> str | None:
       card: The stored card (`tiers`, `all`), its trial table already found to produce
         every other statistic (`trials_refusal`).
       trials: Its trial table (`read_trials`).
+      measures: The measures it must hold if it holds any (default: the board's).
 
     Returns:
       A one-line reason, or None.
@@ -343,6 +371,12 @@ def quality_refusal(card: dict, trials: list[dict]) -> str | None:
         return None
     names = list(trials[0]["quality"])
     claimed = list(card["all"].get("quality") or {})
+    lacking = [m for m in measures if m not in names]
+    if lacking:
+        return (
+            f"its trial table holds gait-quality measures but not {lacking[0]!r}, which the "
+            "board shows"
+        )
     if sorted(names) != sorted(claimed):
         extra = sorted(set(names) - set(claimed)) or sorted(set(claimed) - set(names))
         return (
@@ -636,7 +670,7 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
         if reason:
             return reason
     if artifact_files(run_dir) == (GAIT,):
-        reason = gait_refusal(os.path.join(run_dir, GAIT))
+        reason = gait_refusal(os.path.join(run_dir, GAIT), settings.get("controller", "open_loop"))
         if reason:
             return reason
     # The board's card first (its reason is the one a reader of that board needs), then
@@ -653,7 +687,8 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
         reason = _alike_refusal(cards, tables, kept, current)
         if reason:
             return reason
-    reason = training_refusal(run_dir, settings, summary) or in_sample_refusal(run_dir, summary)
+    reason = training_refusal(run_dir, settings, summary)
+    reason = reason or in_sample_refusal(run_dir, settings, summary)
     if reason:
         return reason
     match = SEED_NAME.match(name)
@@ -666,12 +701,17 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
     return None
 
 
-def gait_refusal(path: str) -> str | None:
-    """Why a run's gait file (`GAIT`) is not a valid parameter file (None: it is one): read
-    strictly, as every run file (`files.read_json`), then `feedback.params_problem` (finite
-    JSON numbers within physical bounds, the names it needs and no others)."""
-    problem = feedback.params_problem(files.read_json(path))
-    return f"{GAIT}: {problem}" if problem else None
+def gait_refusal(path: str, controller: str = "open_loop") -> str | None:
+    """Why a run's gait file (`GAIT`, `IN_SAMPLE`) is not a valid parameter file of its
+    controller (None: it is one): read strictly, as every run file (`files.read_json`),
+    then `feedback.params_problem` (finite JSON numbers within physical bounds, the names
+    it needs and no others); an open-loop gait holds no gains (its scorer reads none, and
+    gains it does not read would make a copy look like another gait to `copies`)."""
+    data = files.read_json(path)
+    problem = feedback.params_problem(data)
+    if not problem and controller != "feedback" and isinstance(data, dict) and "gains" in data:
+        problem = "an open-loop gait holds no gains (its controller reads amplitudes only)"
+    return f"{os.path.basename(path)}: {problem}" if problem else None
 
 
 def _card_refusal(
@@ -701,7 +741,8 @@ def _card_refusal(
         where = "" if card_version == current else f" (its version-{card_version} card)"
         return f"not under the protocol's card settings{where}: " + "; ".join(deviations), None
     trials = read_trials(os.path.join(run_dir, trials_name))
-    reason = trials_refusal(card, trials, steps)
+    measures = BOARD_MEASURES if card_version == current else ()
+    reason = trials_refusal(card, trials, steps, measures)
     if reason and card_version != current:
         reason = f"{reason} (its version-{card_version} card, {trials_name})"
     return reason, trials
@@ -732,7 +773,7 @@ def _count(value) -> bool:
     return type(value) is int and value >= 0
 
 
-def in_sample_refusal(run_dir: str, summary: dict) -> str | None:
+def in_sample_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
     """Why a run's in-sample best does not hold together (None: it does, or it reports
     none): the best training trial `summary.json` reports (`best_distance_m`, `best_fell`,
     `best_round`) is the one its `IN_SAMPLE` gait records; and what `summary.json` stores
@@ -742,6 +783,7 @@ def in_sample_refusal(run_dir: str, summary: dict) -> str | None:
 
     Args:
       run_dir: The run folder.
+      settings: Its config's settings.
       summary: Its summary.
 
     Returns:
@@ -752,7 +794,15 @@ def in_sample_refusal(run_dir: str, summary: dict) -> str | None:
         if summary.get("in_sample") is not None:
             return f"summary.json stores an in_sample best tried again, but no {IN_SAMPLE}"
         return None
+    if artifact_files(run_dir) != (GAIT,):
+        return f"it holds an in-sample gait ({IN_SAMPLE}) but its policy is no gait"
+    reason = gait_refusal(path, settings.get("controller", "open_loop"))
+    if reason:
+        return reason
     best = _read_json(path)
+    rounds = settings.get("rounds")
+    if type(best.get("round")) is int and _count(rounds) and not 1 <= best["round"] <= rounds:
+        return f"its {IN_SAMPLE} is of round {best['round']}, not one of its {rounds} rounds"
     for key, field in (
         ("best_distance_m", "distance_m"),
         ("best_fell", "fell"),

@@ -63,6 +63,10 @@ from cpg_suite import feedback
 from cpg_suite.protocol import files as run_files
 from cpg_suite.runfiles import exported
 
+# A gait run's in-sample best (its best training trial's gait, the round that found it and
+# what it walked there): what the board's in-sample column shows, and verify tries again.
+IN_SAMPLE = "best_params.json"
+
 # m: two trial tables whose outcomes are equal and whose distances all lie this close are
 # one run's (a choice: the closest two shipped tables with equal outcomes differ by 4.1 m;
 # a float printed with fewer digits differs by < 1e-15 m; a forger nudging every trial by
@@ -100,6 +104,7 @@ class Fingerprint:
       structure: The names, shapes and types its values sit under.
       values: Its numeric values, one array per name (None: not numeric).
       digest: A digest of what is not numeric (code's syntax tree, pickles' bytes).
+      in_sample: A gait run's in-sample gait (`best_params.json`) as values, or None.
     """
 
     outcomes: tuple
@@ -108,6 +113,7 @@ class Fingerprint:
     structure: tuple
     values: tuple | None
     digest: str | None
+    in_sample: tuple | None = None
 
 
 def _sha256(*parts: bytes) -> str:
@@ -198,7 +204,10 @@ def fingerprint(run_dir: str, files: tuple[str, ...], trials: list[dict]) -> Fin
     outcomes = tuple((t["tier"], t["seed"], t["fell"], t["fall_step"], t["cause"]) for t in trials)
     distances = np.array([t["distance_m"] for t in trials], dtype=np.float64)
     structure, values, digest = artifact_values(run_dir, files)
-    return Fingerprint(outcomes, distances, files[0], structure, values, digest)
+    in_sample = None
+    if os.path.isfile(os.path.join(run_dir, IN_SAMPLE)):
+        in_sample = artifact_values(run_dir, (IN_SAMPLE,))[1]
+    return Fingerprint(outcomes, distances, files[0], structure, values, digest, in_sample)
 
 
 def same_trials(a: Fingerprint, b: Fingerprint) -> bool:
@@ -290,6 +299,10 @@ def copy_of(later: Fingerprint, earlier: Fingerprint) -> str | None:
         return "trial outcomes"
     if same_artifact(later, earlier):
         return "gait or policy"
+    if later.in_sample is not None and earlier.in_sample is not None:
+        near = value_distance(later.in_sample, earlier.in_sample) <= VALUE_RTOL
+        if near or near_copy(later.in_sample, earlier.in_sample):
+            return "in-sample gait"
     return None
 
 

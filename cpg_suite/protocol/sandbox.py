@@ -279,6 +279,14 @@ def keep_memory_private() -> None:
         raise OSError(ctypes.get_errno(), "prctl(PR_SET_DUMPABLE, 0) failed")
 
 
+def dumpable() -> bool | None:
+    """Whether this process is dumpable (`prctl(PR_GET_DUMPABLE)`; None where prctl is not)."""
+    try:
+        return bool(ctypes.CDLL(None).prctl(_PR_SET_DUMPABLE - 1, 0, 0, 0, 0))
+    except (OSError, AttributeError):
+        return None
+
+
 def _act(policy, observations: dict, batched: bool) -> np.ndarray:
     if batched:
         action = policy.act_batch(observations)

@@ -1012,10 +1012,7 @@ def audit_runs(
     how = {"threads": threads, "trust_code": trust_code, "trusted": trusted}
     with contextlib.ExitStack() as stack:
         if jobs > 1:
-            spawn = multiprocessing.get_context("spawn")
-            pool = stack.enter_context(
-                concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn)
-            )
+            pool = stack.enter_context(_pool(jobs, chosen, trust_code))
             futures = {d: pool.submit(audit_run, d, drawn, how) for d in chosen}
             results = {d: futures[d].result() for d in chosen}
         else:
@@ -1187,6 +1184,21 @@ def _expected_cost(run_dir: str) -> float:
     return steps * (4.0 if python_per_step else 1.0) + 2e5
 
 
+def _pool(jobs: int, run_dirs: list[str], trust_code: bool) -> concurrent.futures.Executor:
+    """The worker processes of a check (spawned: no forked threads or torch state). Where
+    code is trusted to run and some run's policy is code, this process and every worker
+    are made non-dumpable first (`sandbox.keep_memory_private`): a policy's process may
+    not read or rewrite the memory of the process that gathers and records the results,
+    nor of another worker's."""
+    spawn = multiprocessing.get_context("spawn")
+    if not (trust_code and any(admission.unvetted_code(d) for d in run_dirs)):
+        return concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn)
+    sandbox.keep_memory_private()
+    return concurrent.futures.ProcessPoolExecutor(
+        jobs, mp_context=spawn, initializer=sandbox.keep_memory_private
+    )
+
+
 def verify(
     artifacts: str,
     quick: bool = False,
@@ -1257,10 +1269,7 @@ def verify(
     failed = len(refused)
     with contextlib.ExitStack() as stack:
         if jobs > 1:
-            spawn = multiprocessing.get_context("spawn")  # no forked threads or torch state
-            pool = stack.enter_context(
-                concurrent.futures.ProcessPoolExecutor(jobs, mp_context=spawn)
-            )
+            pool = stack.enter_context(_pool(jobs, chosen, trust_code))
             futures = {  # the dearest first, so that no long run starts last
                 run_dir: pool.submit(_check_run, run_dir, how)
                 for run_dir in sorted(chosen, key=_expected_cost, reverse=True)
