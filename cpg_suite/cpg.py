@@ -239,18 +239,96 @@ def amplitudes_from(params) -> np.ndarray:
     return arr
 
 
+# What a parameter file may hold (`amplitudes_problem`, `feedback.params_problem`). The
+# bounds are generous: they refuse what means nothing physically (and what would
+# overflow), not what walks badly.
+#
+# Amplitudes, degrees (`AMPLITUDE_NAMES`; the oscillation or flexion bump of a joint
+# target, cpg.py's docstring). A choice: 360°, a full turn. Every leg joint's range is under
+# 183° wide (the widest, PelvY, −0.69..2.50 rad in cpg_suite/xml/darwin.xml; the targets are
+# clipped to it, `inheritrange`), so an amplitude of 90° already spans it (the reasoning of
+# `residual.MAX_AMPLITUDE_SCALE`) and one past a full turn only saturates the joints. It is
+# over twice the largest any shipped run uses (167.9°, hip, results/protocol/runs/cmaes/
+# darwin_walk/K50_s1_v1_seed0/selected_params.json: the relaxation term attenuates it).
+MAX_AMPLITUDE_DEG = 360.0
+# Top-level keys a parameter file may hold besides "amplitudes" and "gains": what the
+# harness writes with them (`harness.selection`: "source"; `harness.rounds`: "round",
+# "distance_m", "fell"). Not parameters: never read as such.
+METADATA_KEYS = ("source", "round", "distance_m", "fell")
+
+
+def number_problem(where: str, value, bound: float, unit: str) -> str | None:
+    """Why `value` is no JSON number within ±`bound` (None: it is one)."""
+    valid = f"valid: a finite JSON number in [-{bound:g}, {bound:g}] {unit}"
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return f"{where} is {json.dumps(value)[:40]} (a JSON {json_kind(value)}); {valid}"
+    if (isinstance(value, float) and not math.isfinite(value)) or abs(value) > bound:
+        digits = len(str(abs(value))) if isinstance(value, int) else 0
+        shown = f"an integer of {digits} digits" if digits > 20 else repr(value)
+        return f"{where} is {shown}; {valid}"
+    return None
+
+
+def json_kind(value) -> str:
+    """What kind of JSON value `value` is, as a message names it."""
+    if isinstance(value, bool):
+        return "boolean"
+    if value is None:
+        return "null"
+    return {str: "string", list: "array", dict: "object"}.get(type(value), "number")
+
+
+def amplitudes_problem(data) -> str | None:
+    """Why parsed JSON is not a valid amplitude file (None: it is one), in one line that
+    names the problem and what is valid: {"amplitudes": A, ...} (with `METADATA_KEYS` and
+    "gains", which only the feedback CPG reads: `feedback.params_problem` checks them) or
+    A alone, where A is an object of all 11 `AMPLITUDE_NAMES` (or an array of 11 in that
+    order), each a JSON number (not a boolean or a string), finite, within
+    `MAX_AMPLITUDE_DEG`."""
+    if isinstance(data, dict) and "amplitudes" in data:
+        unknown = sorted(set(data) - {"amplitudes", "gains", *METADATA_KEYS})
+        if unknown:
+            return (
+                f"unknown keys {unknown}; valid: amplitudes, gains and {', '.join(METADATA_KEYS)}"
+            )
+        amplitudes = data["amplitudes"]
+    else:
+        amplitudes = data
+    names = ", ".join(AMPLITUDE_NAMES)
+    if isinstance(amplitudes, dict):
+        unknown = sorted(set(amplitudes) - set(AMPLITUDE_NAMES))
+        missing = [n for n in AMPLITUDE_NAMES if n not in amplitudes]
+        if unknown or missing:
+            return (
+                f"amplitudes need exactly the names {names}; unknown {unknown}, missing {missing}"
+            )
+        values = [(f"amplitudes.{n}", amplitudes[n]) for n in AMPLITUDE_NAMES]
+    elif isinstance(amplitudes, list) and len(amplitudes) == N_AMPLITUDES:
+        values = [(f"amplitudes[{i}]", v) for i, v in enumerate(amplitudes)]
+    else:
+        return (
+            f"amplitudes are a JSON {json_kind(amplitudes)}"
+            + (f" of {len(amplitudes)}" if isinstance(amplitudes, list) else "")
+            + f"; valid: an object of the {N_AMPLITUDES} names {names} (or an array of "
+            f"{N_AMPLITUDES} in that order)"
+        )
+    for where, value in values:
+        problem = number_problem(where, value, MAX_AMPLITUDE_DEG, "degrees")
+        if problem:
+            return problem
+    return None
+
+
 def load_amplitudes(path: str) -> np.ndarray:
     """Reads a JSON file holding the 11 amplitudes by name (or a list, or {"amplitudes": ...}).
 
     Raises:
-      ValueError: On a file that is not JSON, or not a valid parameter file
-        (`feedback.params_problem`'s line: the open-loop and feedback files are one format).
+      ValueError: On a file that is not JSON, or not a valid amplitude file
+        (`amplitudes_problem`'s line: the open-loop and feedback files are one format).
     """
-    from cpg_suite import feedback  # imports this module
-
     with open(path, encoding="utf-8") as f:
         data = json.load(f)
-    problem = feedback.params_problem(data)
+    problem = amplitudes_problem(data)
     if problem:
         raise ValueError(problem)
     if isinstance(data, dict) and "amplitudes" in data:

@@ -231,14 +231,7 @@ def params_json(vector) -> dict:
 # What a parameter file may hold (`params_problem`). The bounds are generous: they refuse
 # what means nothing physically (and what would overflow), not what walks badly.
 #
-# Amplitudes, degrees (`cpg.AMPLITUDE_NAMES`; the oscillation or flexion bump of a joint
-# target, cpg.py's docstring). A choice: 360°, a full turn. Every leg joint's range is under
-# 183° wide (the widest, PelvY, −0.69..2.50 rad in cpg_suite/xml/darwin.xml; the targets are
-# clipped to it, `inheritrange`), so an amplitude of 90° already spans it (the reasoning of
-# `residual.MAX_AMPLITUDE_SCALE`) and one past a full turn only saturates the joints. It is
-# over twice the largest any shipped run uses (167.9°, hip, results/protocol/runs/cmaes/
-# darwin_walk/K50_s1_v1_seed0/selected_params.json: the relaxation term attenuates it).
-MAX_AMPLITUDE_DEG = 360.0
+MAX_AMPLITUDE_DEG = cpg.MAX_AMPLITUDE_DEG  # cpg.py: the amplitudes' bound, with its source
 # Posture-reflex gains (`GAIN_NAMES` but "phase"), degrees per radian of tilt or per rad/s of
 # tilt rate. A choice: 360 deg/rad turns a tilt of 0.25 rad (14°) into an offset of 90°, past
 # every leg joint's range (above), and a 1-rad tilt into a full turn; larger gains only
@@ -249,30 +242,8 @@ MAX_POSTURE_GAIN = 360.0
 # 5.71 rad/s): the contact, not the oscillator, would set the phase. The largest shipped
 # |phase gain| is 3.17: 31 times less.
 MAX_PHASE_GAIN = 100.0
-# Top-level keys a parameter file may hold besides "amplitudes" and "gains": what the
-# harness writes with them (`harness.selection`: "source"; `harness.rounds`: "round",
-# "distance_m", "fell"). Not parameters: never read as such.
-METADATA_KEYS = ("source", "round", "distance_m", "fell")
-
-
-def _number_problem(where: str, value, bound: float, unit: str) -> str | None:
-    """Why `value` is no JSON number within ±`bound` (None: it is one)."""
-    valid = f"valid: a finite JSON number in [-{bound:g}, {bound:g}] {unit}"
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return f"{where} is {json.dumps(value)[:40]} (a JSON {_kind(value)}); {valid}"
-    if (isinstance(value, float) and not math.isfinite(value)) or abs(value) > bound:
-        digits = len(str(abs(value))) if isinstance(value, int) else 0
-        shown = f"an integer of {digits} digits" if digits > 20 else repr(value)
-        return f"{where} is {shown}; {valid}"
-    return None
-
-
-def _kind(value) -> str:
-    if isinstance(value, bool):
-        return "boolean"
-    if value is None:
-        return "null"
-    return {str: "string", list: "array", dict: "object"}.get(type(value), "number")
+METADATA_KEYS = cpg.METADATA_KEYS
+_number_problem, _kind = cpg.number_problem, cpg.json_kind
 
 
 def params_problem(data) -> str | None:
@@ -280,44 +251,15 @@ def params_problem(data) -> str | None:
     names the problem and what is valid.
 
     Valid: {"amplitudes": A, "gains": G, ...`METADATA_KEYS`} ("gains" optional: 0), or A
-    alone, where A is an object of all 11 `cpg.AMPLITUDE_NAMES` (or an array of 11 in that
-    order) and G an object of some of `GAIN_NAMES`; each value a JSON number (not a
-    boolean or a string), finite, within `MAX_AMPLITUDE_DEG`, `MAX_POSTURE_GAIN` or
-    `MAX_PHASE_GAIN`. The open-loop amplitude files (`cpg.load_amplitudes`) are the same
-    with no gains.
+    alone, where A is what `cpg.amplitudes_problem` accepts and G an object of some of
+    `GAIN_NAMES`; each gain a JSON number (not a boolean or a string), finite, within
+    `MAX_POSTURE_GAIN` or `MAX_PHASE_GAIN`. The open-loop amplitude files
+    (`cpg.load_amplitudes`) are the same with no gains.
     """
-    gains = {}
-    if isinstance(data, dict) and "amplitudes" in data:
-        unknown = sorted(set(data) - {"amplitudes", "gains", *METADATA_KEYS})
-        if unknown:
-            return (
-                f"unknown keys {unknown}; valid: amplitudes, gains and {', '.join(METADATA_KEYS)}"
-            )
-        amplitudes, gains = data["amplitudes"], data.get("gains", {})
-    else:
-        amplitudes = data
-    names = ", ".join(cpg.AMPLITUDE_NAMES)
-    if isinstance(amplitudes, dict):
-        unknown = sorted(set(amplitudes) - set(cpg.AMPLITUDE_NAMES))
-        missing = [n for n in cpg.AMPLITUDE_NAMES if n not in amplitudes]
-        if unknown or missing:
-            return (
-                f"amplitudes need exactly the names {names}; unknown {unknown}, missing {missing}"
-            )
-        values = [(f"amplitudes.{n}", amplitudes[n]) for n in cpg.AMPLITUDE_NAMES]
-    elif isinstance(amplitudes, list) and len(amplitudes) == cpg.N_AMPLITUDES:
-        values = [(f"amplitudes[{i}]", v) for i, v in enumerate(amplitudes)]
-    else:
-        return (
-            f"amplitudes are a JSON {_kind(amplitudes)}"
-            + (f" of {len(amplitudes)}" if isinstance(amplitudes, list) else "")
-            + f"; valid: an object of the {cpg.N_AMPLITUDES} names {names} (or an array of "
-            f"{cpg.N_AMPLITUDES} in that order)"
-        )
-    for where, value in values:
-        problem = _number_problem(where, value, MAX_AMPLITUDE_DEG, "degrees")
-        if problem:
-            return problem
+    problem = cpg.amplitudes_problem(data)
+    if problem:
+        return problem
+    gains = data.get("gains", {}) if isinstance(data, dict) and "amplitudes" in data else {}
     if not isinstance(gains, dict):
         return (
             f"gains are a JSON {_kind(gains)}; valid: an object of some of {', '.join(GAIN_NAMES)}"

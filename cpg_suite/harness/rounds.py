@@ -70,13 +70,12 @@ def round_seeds(settings: OptimizerSettings, round_number: int) -> list[int]:
     """The training seeds of a round (1-based; `rounds + 1` for the final mean's trial).
 
     The study's setting reuses seeds 0..eval_seeds-1; with `fresh_starts` each round draws
-    its own from the training range with a generator keyed by (seed, round).
+    its own from the training range with a generator keyed by (seed, round)
+    (`protocol.round_seeds`, which verify tries an in-sample best on).
     """
-    if not settings.fresh_starts:
-        return list(range(settings.eval_seeds))
-    rng = np.random.default_rng([settings.seed, round_number])
-    draws = rng.integers(protocol.TRAINING.start, protocol.TRAINING.stop, settings.eval_seeds)
-    return protocol.check_training(draws)
+    return protocol.round_seeds(
+        settings.seed, round_number, settings.eval_seeds, settings.fresh_starts
+    )
 
 
 def run_rounds(

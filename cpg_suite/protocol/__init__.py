@@ -18,6 +18,8 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterable
 
+import numpy as np
+
 from cpg_suite import electrical
 
 # What each version of the benchmark asks of a gait, beyond walking without falling.
@@ -168,3 +170,21 @@ def check_training(seeds: Iterable[int]) -> list[int]:
                 f"{TRAINING.start}..{TRAINING.stop - 1} only"
             )
     return seeds
+
+
+def round_seeds(seed: int, round_number: int, eval_seeds: int, fresh_starts: bool) -> list[int]:
+    """The training seeds of a run's round (1-based; `rounds + 1` for the final mean's
+    trial): the study's setting reuses seeds 0..eval_seeds-1; with `fresh_starts` each
+    round draws its own from the training range with a generator keyed by (seed, round).
+
+    Args:
+      seed: The run's seed.
+      round_number: The round.
+      eval_seeds: Training seeds per candidate.
+      fresh_starts: Whether each round draws its own.
+    """
+    if not fresh_starts:
+        return list(range(eval_seeds))
+    rng = np.random.default_rng([seed, round_number])
+    draws = rng.integers(TRAINING.start, TRAINING.stop, eval_seeds)
+    return check_training(draws)

@@ -76,7 +76,6 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, cpg, evaluation, feedback, progress, protocol
-from cpg_suite.harness import interface, rounds
 from cpg_suite.protocol import admission, audit, sample, sandbox, score
 from cpg_suite.protocol import card as card_stats
 from cpg_suite.runfiles import exported, runs
@@ -768,7 +767,8 @@ def _compare(
 def in_sample_trial(run_dir: str, threads: int = 2) -> dict | None:
     """A gait run's in-sample best tried again by this code: its gait
     (`admission.IN_SAMPLE`) on the training seeds of the round that found it
-    (`rounds.round_seeds`), on its training task and physics, as training tried it.
+    (`protocol.round_seeds`), on its training task and physics (the supply limit of the
+    version it trained under, `OptimizerSettings.task_kwargs`), as training tried it.
 
     Args:
       run_dir: A run folder.
@@ -781,15 +781,21 @@ def in_sample_trial(run_dir: str, threads: int = 2) -> dict | None:
     path = os.path.join(run_dir, admission.IN_SAMPLE)
     if not os.path.isfile(path):
         return None
-    settings = training_settings(runs.read_json(os.path.join(run_dir, "config.json")))
-    vector = gait_params(run_dir, settings.controller, admission.IN_SAMPLE)
-    seeds = rounds.round_seeds(settings, runs.read_json(path)["round"])
+    given = runs.read_json(os.path.join(run_dir, "config.json"))["settings"]
+    controller = given.get("controller", "open_loop")
+    vector = gait_params(run_dir, controller, admission.IN_SAMPLE)
+    seeds = protocol.round_seeds(
+        given["seed"],
+        runs.read_json(path)["round"],
+        given.get("eval_seeds", 1),
+        given.get("fresh_starts", False),
+    )
     with evaluation.open_evaluator(
-        settings.task,
-        settings.trial_steps,
+        given["task"],
+        given["trial_steps"],
         threads,
-        controller=settings.controller,
-        task_kwargs=settings.task_kwargs(),
+        controller=controller,
+        task_kwargs={"supply": protocol.supply_limit(given.get("benchmark_version", 1))},
     ) as evaluator:
         result = evaluator.evaluate(vector[None], seeds)
     return {"distance_m": float(result.distance_m.mean(axis=1)[0]), "fell": bool(result.fell.any())}
@@ -822,14 +828,6 @@ def store_in_sample(run_dir: str, threads: int = 2) -> None:
         return
     summary_path = os.path.join(run_dir, "summary.json")
     runs.write_json(summary_path, {**runs.read_json(summary_path), "in_sample": made})
-
-
-def training_settings(config: dict) -> interface.OptimizerSettings:
-    """A gait run's training settings (`OptimizerSettings`) from its `config.json`: the
-    optimizer's own (CEM's elite, CMA-ES's step size) aside."""
-    names = {f.name for f in dataclasses.fields(interface.OptimizerSettings)}
-    given = config["settings"]
-    return interface.OptimizerSettings(**{k: v for k, v in given.items() if k in names})
 
 
 def history_problems(
