@@ -47,6 +47,10 @@ def test_a_shipped_run_has_its_trials_versions_and_no_machine_path(shipped):
     assert [t["tier"] for t in trials] == [t for t in protocol.TIERS for _ in range(3)]
     assert "--output_dir=runs" in runs.read_json(os.path.join(dest, "config.json"))["command"]
     assert set(runs.read_json(os.path.join(dest, "versions.json"))) == {"made_with", "scored_with"}
+    assert all(set(t["quality"]) >= set(admission.BOARD_MEASURES) for t in trials)
+    summary = runs.read_json(os.path.join(dest, "summary.json"))  # trained by this code:
+    tried = {"distance_m": summary["best_distance_m"], "fell": summary["best_fell"]}
+    assert summary["in_sample"] == tried  # its in-sample best tried again is its record
 
 
 def test_verify_reproduces_a_shipped_run_bit_for_bit(shipped):

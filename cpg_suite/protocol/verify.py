@@ -376,7 +376,8 @@ def ship(run_dir: str, dest: str, threads: int = 2, trust_code: bool = False) ->
 
     The gait or policy is scored again; its card must equal the run's own, or extend it
     with measures added to the card since the run (`extends`); else nothing is written.
-    The shipped summary holds the fresh card.
+    The shipped summary holds the fresh card, and a gait run's in-sample best tried again
+    (`store_in_sample`).
 
     Args:
       run_dir: A finished run directory (summary with a test card, selected gait).
@@ -407,6 +408,7 @@ def ship(run_dir: str, dest: str, threads: int = 2, trust_code: bool = False) ->
     write_trials(os.path.join(dest, "trials.csv"), trials)
     versions = {"made_with": config.get("environment"), "scored_with": runs.environment_record()}
     runs.write_json(os.path.join(dest, "versions.json"), versions)
+    store_in_sample(dest, threads)  # a gait run's in-sample best, tried again
     return dest
 
 
