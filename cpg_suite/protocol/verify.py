@@ -50,7 +50,9 @@ shipped runs': `trusted_artifacts_text`, `--write_trusted`) or in a list given w
 
 When the score card gains a measure, `--update_cards` re-scores every shipped run, checks
 that every trial is unchanged (the gait does what it did), and only then rewrites the
-card in `summary.json` and records the versions it was scored with. When the code that
+card in `summary.json`, its trial tables (each trial's gait-quality measures beside its
+outcome, which the card's medians are made from), a gait run's in-sample best tried again
+(`in_sample`), and records the versions it was scored with. When the code that
 runs a shipped policy changes its arithmetic (not the policy), `--rescore=SUBFOLDER`
 re-scores the shipped runs under that part of the artifacts and stores their new cards
 and trials (`rescore_run`); the learning curves and validation scores stay as trained.
