@@ -456,8 +456,11 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
             mean = low = high = falls = ""
         row[f"{tier}_score_m"], row[f"{tier}_fall_rate"] = mean, falls
         row[f"{tier}_ci95_low"], row[f"{tier}_ci95_high"] = low, high
-    for q in QUALITY:  # a seed whose median is not checked (`verified_summary`) blanks it
-        row[q] = _mean_of_all([t["all"]["quality"].get(q) for t in tests])
+    for q in QUALITY:  # a seed whose card's medians are not checked blanks it (they are
+        # absent: `verified_summary`); a median that is None (no trial of the seed had a
+        # finite value) is left out of the mean, as before
+        checked = all(q in t["all"]["quality"] for t in tests)
+        row[q] = _mean([t["all"]["quality"][q] for t in tests]) if checked else ""
     pub, source = _published("darwin_walk", method, config, "best_distance_m")
     row["published_best_trial"] = "" if pub is None else pub
     row["published_source"] = source
