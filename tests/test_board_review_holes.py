@@ -76,9 +76,10 @@ def test_a_policy_run_cannot_show_a_planted_gaits_in_sample_best(tmp_path):
     run = _copy(tmp_path, PPO_RUN, "ppo", "joints_seed0")
     _plant_in_sample(run, os.path.join(GAIT_RUN, "best_params.json"), 3.129133497444576)
     assert admission.artifact_files(str(run)) == (admission.EXPORTED,)
-    # Fix: in_sample_refusal refuses best_params.json / in_sample unless the run is a gait
-    # run (artifact_files == (GAIT,)) whose config names the controller its file fits.
-    assert admission.run_refusal(str(run)) is not None
+    # A policy's run holds no in-sample gait: the board shows none, verify tries none.
+    summary = _read(run / "summary.json")
+    assert admission.verified_summary(str(run), summary)["in_sample"] is None
+    assert not admission.has_in_sample(str(run))
 
 
 def test_an_in_sample_round_past_the_runs_training_rounds_is_refused(tmp_path):

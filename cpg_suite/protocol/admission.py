@@ -428,8 +428,8 @@ def verified_summary(run_dir: str, summary: dict) -> dict:
         return summary
     current = max(cards)
     checked = dict(summary)
-    if "in_sample" not in summary:
-        checked["in_sample"] = None  # not tried again: not on the board
+    if not has_in_sample(run_dir):
+        checked["in_sample"] = None  # no gait run's in-sample gait: nothing to show
     history = dict(summary.get("history") or {})
     for version, card in cards.items():
         path = os.path.join(run_dir, trials_file(version, current))
@@ -773,6 +773,13 @@ def _count(value) -> bool:
     return type(value) is int and value >= 0
 
 
+def has_in_sample(run_dir: str) -> bool:
+    """Whether a run holds an in-sample gait the board may show tried again: a gait run
+    (its policy is `GAIT`) with an `IN_SAMPLE` file. A policy's run holds none: a
+    `best_params.json` beside another policy is no part of it (never read)."""
+    return artifact_files(run_dir) == (GAIT,) and os.path.isfile(os.path.join(run_dir, IN_SAMPLE))
+
+
 def in_sample_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
     """Why a run's in-sample best does not hold together (None: it does, or it reports
     none): the best training trial `summary.json` reports (`best_distance_m`, `best_fell`,
@@ -790,12 +797,8 @@ def in_sample_refusal(run_dir: str, settings: dict, summary: dict) -> str | None
       A one-line reason, or None.
     """
     path = os.path.join(run_dir, IN_SAMPLE)
-    if not os.path.isfile(path):
-        if summary.get("in_sample") is not None:
-            return f"summary.json stores an in_sample best tried again, but no {IN_SAMPLE}"
-        return None
-    if artifact_files(run_dir) != (GAIT,):
-        return f"it holds an in-sample gait ({IN_SAMPLE}) but its policy is no gait"
+    if not has_in_sample(run_dir):
+        return None  # nothing of it is shown (`verified_summary`) or read
     reason = gait_refusal(path, settings.get("controller", "open_loop"))
     if reason:
         return reason

@@ -204,8 +204,8 @@ def fingerprint(run_dir: str, files: tuple[str, ...], trials: list[dict]) -> Fin
     outcomes = tuple((t["tier"], t["seed"], t["fell"], t["fall_step"], t["cause"]) for t in trials)
     distances = np.array([t["distance_m"] for t in trials], dtype=np.float64)
     structure, values, digest = artifact_values(run_dir, files)
-    in_sample = None
-    if os.path.isfile(os.path.join(run_dir, IN_SAMPLE)):
+    in_sample = None  # a gait run's (`admission.has_in_sample`)
+    if files == ("selected_params.json",) and os.path.isfile(os.path.join(run_dir, IN_SAMPLE)):
         in_sample = artifact_values(run_dir, (IN_SAMPLE,))[1]
     return Fingerprint(outcomes, distances, files[0], structure, values, digest, in_sample)
 

@@ -783,7 +783,7 @@ def in_sample_trial(run_dir: str, threads: int = 2) -> dict | None:
       `in_sample` stores it, the board's in-sample column), or None for a run without it.
     """
     path = os.path.join(run_dir, admission.IN_SAMPLE)
-    if not os.path.isfile(path):
+    if not admission.has_in_sample(run_dir):
         return None
     given = runs.read_json(os.path.join(run_dir, "config.json"))["settings"]
     controller = given.get("controller", "open_loop")
@@ -813,8 +813,8 @@ def in_sample_problems(run_dir: str, threads: int = 2) -> list[str]:
       OSError, KeyError, ValueError: On a run without a readable config or gait.
     """
     stored = runs.read_json(os.path.join(run_dir, "summary.json")).get("in_sample")
-    if stored is None:
-        return []
+    if stored is None or not admission.has_in_sample(run_dir):
+        return []  # none shown on the board (`admission.verified_summary`)
     made = in_sample_trial(run_dir, threads)
     if made == stored:
         return []
