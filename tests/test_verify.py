@@ -112,8 +112,15 @@ def test_update_cards_records_each_stored_card_in_the_ledger(tmp_path):
     copy = tmp_path / "cem" / "darwin_walk" / "run_seed0"
     shutil.copytree(os.path.join(shipped, "K50_n0.8_e2_seed0"), copy)
     summary = json.loads((copy / "summary.json").read_text())
-    del summary["test"]["all"]["quality"]["energy_per_m"]  # a card older than a measure
+    cards = {"trials.csv": summary["test"], "trials_v2.csv": summary["history"]["v2"]}
+    for name, card in cards.items():  # cards and tables older than a measure
+        for row in [card["all"], *card["tiers"].values()]:
+            del row["quality"]["flight_share"]
+        with open(copy / name, newline="") as f:
+            rows = [{k: v for k, v in r.items() if k != "flight_share"} for r in csv.DictReader(f)]
+        runs.write_rows_csv(str(copy / name), rows)
     (copy / "summary.json").write_text(json.dumps(summary))
+    assert admission.run_refusal(str(copy)) is None
     old_digest = admission.run_digest(str(copy))
     ledger = str(tmp_path / "rescored.csv")
     verify.update_cards([str(copy)], threads=1, record=ledger)
@@ -121,6 +128,9 @@ def test_update_cards_records_each_stored_card_in_the_ledger(tmp_path):
     row = admission.read_ledger(ledger)[admission.run_key(str(copy))]
     assert (row["check"], row["result"]) == ("full", "reproduced")
     assert row["files_sha256"] == admission.run_digest(str(copy)) != old_digest
+    stored = json.loads((copy / "summary.json").read_text())
+    assert "flight_share" in stored["test"]["all"]["quality"]  # the card gained it back,
+    assert "flight_share" in verify.read_trials(str(copy / "trials.csv"))[0]["quality"]  # its table
 
 
 def test_rescore_run_stores_the_trials_and_card_the_code_gives_now(shipped, tmp_path):
