@@ -493,33 +493,20 @@ def ship_all(
     return shipped
 
 
-def fresh_card(
-    run_dir: str,
-    threads: int = 2,
-    trust_code: bool = False,
-    trusted: frozenset[str] | None = None,
-) -> dict:
-    """A shipped run scored again, its card made anew, if its trials are unchanged and the
-    cards it keeps as history reproduce (as `verify_run` checks them: a full check).
-
-    Raises:
-      ValueError: If a trial differs from `trials.csv`, or a history card differs.
-      UntrustedCode: If its policy is code not trusted (nothing is loaded).
-    """
-    return fresh_scoring(run_dir, threads, trust_code, trusted)[0][0]
-
-
 def fresh_scoring(
     run_dir: str,
     threads: int = 2,
     trust_code: bool = False,
     trusted: frozenset[str] | None = None,
 ) -> tuple[tuple[dict, list[dict]], list[tuple[int, dict, list[dict]]]]:
-    """`fresh_card` with the trials behind it, and each card the run keeps as history made
-    again with its trials: `((card, trials), [(version, card, trials), ...])`.
+    """A shipped run scored again, its card made anew with the trials behind it, and each
+    card it keeps as history made again with its trials, if its trials are unchanged and
+    those cards reproduce (as `verify_run` checks them: a full check):
+    `((card, trials), [(version, card, trials), ...])`.
 
     Raises:
-      ValueError, UntrustedCode: As `fresh_card`.
+      ValueError: If a trial differs from `trials.csv`, or a history card differs.
+      UntrustedCode: If its policy is code not trusted (nothing is loaded).
     """
     summary = runs.read_json(os.path.join(run_dir, "summary.json"))
     how = (threads, trust_code, trusted)
