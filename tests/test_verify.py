@@ -329,3 +329,18 @@ def test_a_run_done_early_is_recorded_before_an_earlier_one_in_path_order(tmp_pa
         release.set()
         writer.join(60)
     assert len(admission.read_ledger(ledger)) == 2
+
+
+def test_a_summary_s_bytes_do_not_depend_on_the_order_its_parts_were_made(tmp_path):
+    """An upgrade after the in-sample check and one before it write the same file (the slow
+    upgrade test failed on key order alone): the training record, then test, history and
+    in-sample."""
+    trained = {"best_distance_m": 1.5, "rounds": 3}
+    parts = {"test": {"n": 1}, "history": {"v2": {"n": 1}}, "in_sample": {"fell": False}}
+    written = []
+    for order in (("in_sample", "history", "test"), ("test", "history", "in_sample")):
+        path = tmp_path / f"{order[0]}.json"
+        verify._write_summary(str(path), {**{k: parts[k] for k in order}, **trained})
+        written.append(path.read_bytes())
+    assert written[0] == written[1]
+    assert list(json.loads(written[0])) == ["best_distance_m", "rounds", *verify.SCORED_KEYS]

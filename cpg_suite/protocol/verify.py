@@ -405,7 +405,7 @@ def ship(run_dir: str, dest: str, threads: int = 2, trust_code: bool = False) ->
     os.makedirs(dest, exist_ok=True)
     for name in _copied(run_dir):
         shutil.copyfile(os.path.join(run_dir, name), os.path.join(dest, name))
-    runs.write_json(os.path.join(dest, "summary.json"), {**summary, "test": fresh})
+    _write_summary(os.path.join(dest, "summary.json"), {**summary, "test": fresh})
     runs.write_json(os.path.join(dest, "config.json"), _relocated(config))
     write_trials(os.path.join(dest, "trials.csv"), trials)
     versions = {"made_with": config.get("environment"), "scored_with": runs.environment_record()}
@@ -563,11 +563,22 @@ def _measured(trials: list[dict], card: dict) -> list[dict]:
     return [{**t, "quality": {name: t["quality"][name] for name in names}} for t in trials]
 
 
+SCORED_KEYS = ("test", "history", "in_sample")
+"""What scoring adds to a run's summary, written last and in this order, so a summary's bytes
+depend on what it holds, not on the order in which its parts were made."""
+
+
+def _write_summary(path: str, summary: dict) -> None:
+    """Writes a shipped run's summary: its training record, then `SCORED_KEYS`."""
+    trained = {k: v for k, v in summary.items() if k not in SCORED_KEYS}
+    runs.write_json(path, {**trained, **{k: summary[k] for k in SCORED_KEYS if k in summary}})
+
+
 def _store_card(run_dir: str, card: dict) -> None:
     """Writes a fresh card into a shipped run's summary and the versions it was scored with."""
     summary_path = os.path.join(run_dir, "summary.json")
     summary = runs.read_json(summary_path)
-    runs.write_json(summary_path, {**summary, "test": _jsonable(score.stored_card(card))})
+    _write_summary(summary_path, {**summary, "test": _jsonable(score.stored_card(card))})
     _record_scoring(run_dir)
 
 
@@ -632,7 +643,7 @@ def _store_history_if_changed(run_dir: str, version: int, card: dict, trials: li
     fresh = _jsonable(score.stored_card(card))
     write_trials(path, trials)
     history = {**summary["history"], f"v{version}": fresh}
-    runs.write_json(summary_path, {**summary, "history": history})
+    _write_summary(summary_path, {**summary, "history": history})
     _record_scoring(run_dir)
 
 
@@ -818,7 +829,7 @@ def store_in_sample(run_dir: str, threads: int = 2) -> None:
     if made is None:
         return
     summary_path = os.path.join(run_dir, "summary.json")
-    runs.write_json(summary_path, {**runs.read_json(summary_path), "in_sample": made})
+    _write_summary(summary_path, {**runs.read_json(summary_path), "in_sample": made})
 
 
 def history_problems(
@@ -1131,7 +1142,7 @@ def upgrade_run(
     write_trials(os.path.join(run_dir, history_trials_file(old)), old_trials)
     summary = runs.read_json(summary_path)
     history = {**summary.get("history", {}), f"v{old}": _jsonable(score.stored_card(old_card))}
-    runs.write_json(summary_path, {**summary, "history": history})
+    _write_summary(summary_path, {**summary, "history": history})
     write_trials(os.path.join(run_dir, "trials.csv"), trials)
     _store_card(run_dir, card)
     return True
