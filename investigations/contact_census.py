@@ -37,6 +37,7 @@ import numpy as np
 from absl import flags
 
 from cpg_suite import cli, cpg, darwin, protocol
+from cpg_suite.evaluation import closed_loop
 from cpg_suite.protocol import score, verify
 
 MJX_TIERS = ("darwin_walk", "darwin_walk_randomized", "darwin_walk_push")
@@ -140,9 +141,19 @@ def configurations(root: str) -> list[tuple[str, str, object]]:
         config = rel.rsplit("_seed", 1)[0]
         policy = verify.shipped_policy(run_dir)
         if policy is None:
-            policy = score.OpenLoopPolicy(cpg.load_amplitudes(f"{run_dir}/selected_params.json"))
+            policy = gait_policy(run_dir)
         found.append((config, rel, policy))
     return found
+
+
+def gait_policy(run_dir: str):
+    """A gait run's selected gait as a policy, read for its controller as the scorer reads it
+    (`verify.gait_params`): the feedback CPG's amplitudes with their gains, else the CPG's."""
+    controller = verify.run_settings(run_dir).controller
+    params = verify.gait_params(run_dir, controller)
+    if controller == "feedback":
+        return closed_loop.FeedbackPolicy(params)
+    return score.OpenLoopPolicy(params)
 
 
 def summarize(rows: list[dict]) -> list[dict]:

@@ -62,3 +62,26 @@ def test_bad_input_is_one_line_exit_2(tmp_path):
         lines = out.stderr.strip().splitlines()
         assert out.returncode == 2 and len(lines) == 1, out.stderr
         assert lines[0].startswith("error: ") and words in lines[0]
+
+
+def test_a_feedback_run_is_censused_with_its_gains(tmp_path):
+    """The census runs each gait with its own controller, as the scorer reads it: a feedback
+    run's gains are not dropped (it loaded every gait as open-loop amplitudes)."""
+    import shutil
+
+    import numpy as np
+
+    from cpg_suite.evaluation import closed_loop
+    from cpg_suite.protocol import score, verify
+
+    shipped = os.path.join(os.path.dirname(__file__), "..", "results", "protocol", "runs")
+    rel = os.path.join("cmaes", "darwin_walk_rough", "K50_s1_feedback_seed1")
+    shutil.copytree(os.path.join(shipped, rel), tmp_path / rel)
+    rel_cem = os.path.join("cem", "darwin_walk", "K50_n0.8_e2_seed0")
+    shutil.copytree(os.path.join(shipped, rel_cem), tmp_path / rel_cem)
+    found = {run: policy for _, run, policy in _module().configurations(str(tmp_path))}
+    gains = found[rel]
+    assert isinstance(gains, closed_loop.FeedbackPolicy)
+    want = verify.gait_params(str(tmp_path / rel), "feedback")
+    assert np.array_equal(gains.params, want)
+    assert isinstance(found[rel_cem], score.OpenLoopPolicy)
