@@ -129,3 +129,52 @@ def test_bad_arguments(tokic):
         models.tokic_model(slip=1.0)
     with pytest.raises(ValueError):
         models.grid_model({((0, 0), (2, 2)): 1.0})
+
+
+def _alg41_by_hand(model, gamma, start, rng, moves):
+    """Alg. 4.1 as the thesis writes it: a greedy move, then one in-place sweep over every
+    state, V starting at 0 (the reference `study_evidence.alg41_walk` must equal)."""
+    from baselines.tabular.exploration import argmax_ties
+
+    values, path = np.zeros(model.n_states), [start]
+    for _ in range(moves):
+        q = planning.action_values(model, values, gamma)[path[-1]]
+        a = argmax_ties(q, rng, None if rng is not None else model.tie_order)
+        path.append(model.intended_successor(path[-1], a))
+        for s in range(model.n_states):
+            values[s] = planning.action_values(model, values, gamma)[s].max()
+    return path
+
+
+def test_the_alg41_walk_is_the_move_then_sweep_loop(tokic):
+    """CR-1a's and CR-3's measure: the walk read off value iteration's history equals the
+    loop that sweeps after each move, with fixed and with seeded tie-breaking."""
+    from baselines.experiments import study_evidence as se
+
+    history = planning.value_iteration(tokic, 0.9, sweeps=60).history
+    for start in (0, 7, 24):
+        for seed in (None, 3):
+            rng = (
+                None if seed is None else (np.random.RandomState(seed), np.random.RandomState(seed))
+            )
+            walk = se.alg41_walk(tokic, history, 0.9, start, rng and rng[0])
+            assert walk == _alg41_by_hand(tokic, 0.9, start, rng and rng[1], 60)
+
+
+def test_a_walk_s_final_cycle_and_its_entry():
+    from baselines.experiments import study_evidence as se
+
+    assert se.final_cycle([5, 4, 1, 2, 3, 1, 2, 3, 1]) == (frozenset({1, 2, 3}), 2)
+    assert se.final_cycle([0, 1, 0, 1, 0]) == (frozenset({0, 1}), 0)
+    assert se.final_cycle([9, 8, 7, 7, 7]) == (frozenset({7}), 2)
+    # a walk that left a cycle and entered another: the entry is into the last one
+    assert se.final_cycle([1, 2, 1, 2, 3, 4, 3, 4, 3]) == (frozenset({3, 4}), 4)
+
+
+def test_alg41_from_every_cell_ends_in_the_six_cycle_soon():
+    """CR-3's evidence, per tie-breaking seed (known answer: all 25 cells within 9 moves)."""
+    from baselines.experiments import study_evidence as se
+
+    for found in se.tokic_alg41():
+        assert [tuple(c) for c in found["cycle"]] == sorted(SIX_CYCLE)
+        assert found["starts_in_cycle_within"] == 25 and found["latest_entry"] <= 20

@@ -451,27 +451,31 @@ def nac_4a(ev: Evidence) -> v.Verdict:
     return v.majority(flags, f"max |F| per window, first → last quarter: {shown}")
 
 
-@rule("CPG-8")
-def cpg_8(ev: Evidence) -> v.Verdict:
+# CPG-8's three features, judged apart (split after the fourth reading of 2026-11-28): each
+# part is the rule first written for all three, on its own raise.
+RAISED = {"CPG-8a": ("compass_hip", "step_length_m"), "CPG-8b": ("knee", "swing_height_m")}
+RAISED["CPG-8c"] = ("balancing_hip", "sway_m")
+
+
+def raised_part(ev: Evidence, claim_id: str) -> v.Verdict:
+    """One raised amplitude against the hand-tuned gait (`RAISED`): the paired difference of
+    its feature, inconclusive where a raised gait fell or a trial has no measure."""
+    name, feature = RAISED[claim_id]
     found = ev.computed("raised_amplitudes")
-    hand = found["hand_tuned"]
-    parts = []
-    for name, feature in (
-        ("compass_hip", "step_length_m"),
-        ("knee", "swing_height_m"),
-        ("balancing_hip", "sway_m"),
-    ):
-        raised = found[name]
-        fell = sum(t["fell"] for t in raised)
-        pairs = [(a[feature], b[feature]) for a, b in zip(raised, hand)]
-        pairs = [(a, b) for a, b in pairs if np.isfinite(a) and np.isfinite(b)]
-        label = f"{feature}, {name} raised − hand-tuned ({fell} falls)"
-        if len(pairs) < len(hand):
-            text = f"{label}: {len(hand) - len(pairs)} trials without a measure (no touchdown)"
-            parts.append(v.Verdict(v.INCONCLUSIVE, text, "trials without a footfall"))
-            continue
-        verdict = v.paired_greater([a for a, _ in pairs], [b for _, b in pairs], label)
-        if fell and verdict.verdict == v.HOLDS:
-            verdict = v.Verdict(v.INCONCLUSIVE, verdict.evidence, "a raised gait fell")
-        parts.append(verdict)
-    return v.joined(parts)
+    hand, raised = found["hand_tuned"], found[name]
+    fell = sum(t["fell"] for t in raised)
+    pairs = [(a[feature], b[feature]) for a, b in zip(raised, hand)]
+    pairs = [(a, b) for a, b in pairs if np.isfinite(a) and np.isfinite(b)]
+    label = f"{feature}, {name} raised − hand-tuned ({fell} falls)"
+    if len(pairs) < len(hand):
+        text = f"{label}: {len(hand) - len(pairs)} trials without a measure (no touchdown)"
+        why = f"the raised gait fell in {fell} of {len(raised)} trials: a raise the thesis "
+        return v.Verdict(v.INCONCLUSIVE, text, why + "does not give (seed L1148; ours: `RAISED`)")
+    verdict = v.paired_greater([a for a, _ in pairs], [b for _, b in pairs], label)
+    if fell and verdict.verdict == v.HOLDS:
+        return v.Verdict(v.INCONCLUSIVE, verdict.evidence, "a raised gait fell")
+    return verdict
+
+
+for _id in RAISED:
+    rule(_id)(lambda ev, _id=_id: raised_part(ev, _id))

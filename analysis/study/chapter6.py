@@ -327,7 +327,18 @@ def cem_8b(ev: Evidence) -> v.Verdict:
 
 @rule("CEM-8c")
 def cem_8c(ev: Evidence) -> v.Verdict:
-    return above(ev, "K10_n0.2_e2", "K10_n0.8_e2", best_round, "R(0.2) − R(0.8)")
+    """The interval; where it cannot decide, whether the run's length caps R (the fourth
+    reading of 2026-11-28: every R may lie in the last rounds of the run)."""
+    found = above(ev, "K10_n0.2_e2", "K10_n0.8_e2", best_round, "R(0.2) − R(0.8)")
+    if found.verdict != v.INCONCLUSIVE:
+        return found
+    r02, r08 = paired(ev, "K10_n0.2_e2", "K10_n0.8_e2", best_round)
+    rounds = min(len(r.progress) for s in ("K10_n0.2_e2", "K10_n0.8_e2") for r in ev.cem(s))
+    low, high = min(r02 + r08), max(r02 + r08)
+    why = f"{found.why}; every R lies in rounds {low}-{high} of {rounds}"
+    if high - low < 0.2 * rounds:
+        why += ": both noises are still improving when the run ends, so its length caps R"
+    return v.Verdict(found.verdict, found.evidence, why)
 
 
 def _run_mean(run: CEMRun) -> float:

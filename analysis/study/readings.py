@@ -89,12 +89,11 @@ NOT_REPRODUCED = {
     "settings of what the thesis does not give (ω, β, the offsets, the ankle term's sign), "
     "none meets the rule's 1.75 cm (a third of the half-length): the lowest without a fall, "
     "2.41 cm; so darwin_balance stays as shipped and Chapter 5 is not re-run",
-    "CPG-8": "the raises, which the thesis does not give (seed L1148: ours compass 0 → 10°, "
-    "knee 40 → 50°, hip balancing 11 → 16°), and the torso's sway, which turns on ω, β and the "
-    "offsets the thesis does not give: β 8 /s > ω 5.7 /s shifts the roll sway 54.5° early on "
-    "our robot, which stands on its sole's edge (CPG-4's measurement): there a larger hip "
-    "balancing amplitude lessens the sway, and the compass raise falls (no step to measure); "
-    "the knee amplitude lifts the foot higher, as said (seed L1160)",
+    "CPG-8c": "the torso's sway, which turns on ω, β and the offsets the thesis does not give "
+    "(nor the raise, seed L1148: ours hip balancing 11 → 16°): β 8 /s > ω 5.7 /s shifts the "
+    "roll sway 54.5° early on our robot, which stands on its sole's edge (CPG-4's measurement); "
+    "there a larger hip balancing amplitude lessens the sway (split from CPG-8 after the "
+    "fourth reading of 2026-11-28; the 54.5° is measured for CPG-4, not on this raise)",
     "CEM-10a": "the budget K 70 and K 100 ran, which the thesis does not give (seed L1324: 'a "
     "great consumption of resources'): at equal rounds (50) K 100 beats K 50 by +0.31 m; at equal "
     "trials (2500) K 100 falls short of K 50 and K 70 is undecided (beside)",

@@ -284,6 +284,23 @@ def cem_14a(ev: Evidence) -> v.Verdict:
     return v.Verdict(verdict, found.evidence)
 
 
+# --- revised after the fourth reading of 2026-11-28 (an outside reader, results/study/
+# second_reading.md) ---------------------------------------------------------------------
+# CPG-8 is split into its three features (CPG-8a to 8c), each judged by the rule first
+# written for all three. CPG-1a's statement says what its rule tests; CR-1a's and CR-3's
+# evidence follows the measure they registered (Alg. 4.1 from V = 0 per seed, where they
+# read the converged policy); their criteria are unchanged.
+
+
+@first("CPG-8")
+def cpg_8(ev: Evidence) -> v.Verdict:
+    """Was: all three features at once, "fails" if any interval lies below 0, labelled not
+    reproduced here (the sway's reason)."""
+    found = v.joined([chapter5.raised_part(ev, p) for p in chapter5.RAISED])
+    verdict = v.NOT_REPRODUCED if found.verdict == v.FAILS else found.verdict
+    return v.Verdict(verdict, found.evidence)
+
+
 # --- revised after the first second reading, commit 5e854fa (runs replaced) ---------------
 # CR-13 to CR-15 judged the learners after 1000 moves at their best α, where the thesis let
 # them learn to convergence (now 5000 moves); CPG-5 read "raising widens every joint it

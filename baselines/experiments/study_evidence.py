@@ -36,6 +36,7 @@ from absl import flags
 import cpg_suite
 from baselines import cem
 from baselines.tabular import models, planning
+from baselines.tabular.exploration import argmax_ties
 from cpg_suite import cli, cpg, crawler, darwin, protocol, trajectories
 from cpg_suite.evaluation import gait
 from cpg_suite.runfiles import runs
@@ -51,6 +52,9 @@ HAND_SEEDS = 5  # initial-state seeds of the hand-tuned gait's trials
 PERTURBATIONS = 20  # draws N(θ*, I deg²) per learned gait
 PER_CYCLE = 200  # CPG samples a cycle: a half cycle is a whole number of them
 LEARNED = "K10_n0.8_e2"  # the Table 6.1 setting whose learned gaits are perturbed
+ALG41_SEEDS = 5  # tie-breaking seeds of the Alg. 4.1 walks (seed 0: the model's fixed order)
+ALG41_MOVES = 1000  # the thesis gives no run length
+ALG41_WITHIN = 20  # moves: "soon" (the criteria of CR-1a and CR-3)
 LEFT_LEG = ("hip yaw", "hip roll", "hip pitch", "knee", "ankle pitch", "ankle roll")
 
 
@@ -72,6 +76,84 @@ def _last_change(model: models.TabularModel, history: list[np.ndarray], gamma: f
         k for k in range(1, len(policies)) if not np.array_equal(policies[k], policies[k - 1])
     ]
     return changed[-1] if changed else 0
+
+
+def alg41_walk(
+    model: models.TabularModel,
+    history: list[np.ndarray],
+    gamma: float,
+    start: int,
+    rng: np.random.RandomState | None,
+) -> list[int]:
+    """Thesis Alg. 4.1 on the complete model from V = 0: a greedy move, then one in-place
+    sweep of every state, `len(history) - 1` times. The sweeps do not depend on the path
+    (the model is complete), so V before move k is value iteration's V after k sweeps
+    (`history[k]`).
+
+    Args:
+      model: The Tokic model.
+      history: V after 0, 1, ... sweeps (`planning.value_iteration(..., sweeps=n).history`).
+      gamma: The discount.
+      start: The starting cell.
+      rng: Breaks ties among exact maximisers at random; None: the model's fixed order.
+
+    Returns:
+      The cells visited, `start` first.
+    """
+    path = [start]
+    for values in history[:-1]:
+        q = planning.action_values(model, values, gamma)[path[-1]]
+        a = argmax_ties(q, rng, None if rng is not None else model.tie_order)
+        path.append(model.intended_successor(path[-1], a))
+    return path
+
+
+def final_cycle(path: list[int]) -> tuple[frozenset[int], int]:
+    """The cycle a walk repeats at its end, and the move at which it entered it for good.
+
+    Returns:
+      `(cells, entry)`: the cycle's cells, and the first move k from which the walk repeats
+      with the cycle's period to its end.
+    """
+    last = len(path) - 1
+    period = next(k for k in range(1, last + 1) if path[last - k] == path[last])
+    entry = last - period
+    while entry > 0 and path[entry - 1] == path[entry - 1 + period]:
+        entry -= 1
+    return frozenset(path[entry : entry + period]), entry
+
+
+def tokic_alg41(gamma: float = 0.9) -> list[dict]:
+    """CR-1a's and CR-3's measure: per tie-breaking seed, Alg. 4.1 from V = 0 for
+    `ALG41_MOVES` moves from (0, 0) and from every cell (a fresh `RandomState(seed)` each;
+    seed 0: the model's fixed order).
+
+    Returns:
+      Per seed: the cycle from (0, 0) (cells), the move it was entered, its length, how many
+      of the 25 starts end in that cycle entered within `ALG41_WITHIN` moves, and the
+      latest entry of any start.
+    """
+    model = models.tokic_model()
+    history = planning.value_iteration(model, gamma, sweeps=ALG41_MOVES).history
+    found = []
+    for seed in range(ALG41_SEEDS):
+
+        def walk(start: int, seed: int = seed) -> tuple[frozenset[int], int]:
+            rng = None if seed == 0 else np.random.RandomState(seed)
+            return final_cycle(alg41_walk(model, history, gamma, start, rng))
+
+        cycle, entry = walk(model.start_state)
+        ends = [walk(s) for s in range(model.n_states)]
+        found.append(
+            {
+                "seed": seed,
+                "cycle": [list(model.label(s)) for s in sorted(cycle)],
+                "entry": entry,
+                "starts_in_cycle_within": sum(c == cycle and k <= ALG41_WITHIN for c, k in ends),
+                "latest_entry": max(k for _, k in ends),
+            }
+        )
+    return found
 
 
 def tokic() -> dict:
@@ -388,6 +470,7 @@ def compute(settings: EvidenceSettings) -> dict:
         "hand_tuned": hand.tolist(),
         "sole_half_length_m": sole_half_length(),
         "tokic": tokic(),
+        "tokic_alg41": tokic_alg41(),
         "tokic_on_crawler": tokic_on_crawler(),
         "toy": toy(),
         "cpg": cpg_targets(list(k10.values()), list(k50.values())),
