@@ -274,6 +274,10 @@ QUALITY = admission.BOARD_MEASURES
 # Budget tracks (docs/protocol.md#ranking): the study's budget is at most 2,501 training
 # trials (K = 50 for 50 rounds, plus the start) or 2.5 M training control steps (PPO).
 STUDY_TRIALS, STUDY_CONTROL_STEPS = 2501, 2_500_000
+# How far a learner's `env_steps` may pass its config's `total_steps` and still count as
+# that budget (it trains whole rollouts): a choice; the shipped runs pass it by at most
+# 1.6 % (MJX PPO: 2,539,520 of 2.5 M), and a run past it counts by its `env_steps`.
+LAST_ROLLOUT = 0.02
 TRACKS = ("study", "4x", "over_4x")
 MIN_SEEDS = 5  # fewer seeds: provisional, not ranked
 DARWIN_FIELDS = [
@@ -359,7 +363,9 @@ def _budget_ratio(summary: dict) -> float:
     """A run's training budget over the study's (inf where it does not say it as a count:
     a refused run's summary, which a report of unadmitted cards still reads)."""
     if "env_steps" in summary:
-        steps = summary.get("budget_control_steps", summary["env_steps"])
+        steps, given = summary["env_steps"], summary.get("budget_control_steps")
+        if _is_count(steps) and _is_count(given) and steps <= given * (1 + LAST_ROLLOUT):
+            steps = given  # the learner's last whole rollout passed its budget
         return steps / STUDY_CONTROL_STEPS if _is_count(steps) else math.inf
     trials = summary.get("evaluations")
     return trials / STUDY_TRIALS if _is_count(trials) else math.inf
@@ -538,6 +544,8 @@ def admit(found: list[dict], version: int | None = None) -> tuple[list[dict], li
         [run["dir"] for run in darwin if run["method"] != PRESET_METHOD], board
     )
     admitted, refused = [], []
+    dirs = [os.path.abspath(run["dir"]) for run in darwin if run["method"] != PRESET_METHOD]
+    base = os.path.commonpath(dirs) if dirs else ""
     for run in darwin:
         reason = PRESET_REFUSAL if run["method"] == PRESET_METHOD else reasons.get(run["dir"])
         if reason is None:
@@ -551,7 +559,9 @@ def admit(found: list[dict], version: int | None = None) -> tuple[list[dict], li
                 "method": run["method"],
                 "config": run["config"],
                 "seed": "" if run["seed"] is None else run["seed"],
-                "run": "/".join(parts[-3:] if run["method"] != PRESET_METHOD else parts[-1:]),
+                "run": parts[-1]
+                if run["method"] == PRESET_METHOD
+                else admission.shown(run["dir"], base).replace(os.sep, "/"),
                 "reason": reason,
             }
         )

@@ -212,13 +212,19 @@ def read_trials(path: str) -> list[dict]:
       KeyError, ValueError: On a missing column, a column named twice, a value of the
         wrong kind, or a file the board may not read (`files.refusal`).
     """
-    reader = csv.DictReader(io.StringIO(files.read_text(path), newline=""))
+    text = files.read_text(path)
+    reader = csv.DictReader(io.StringIO(text, newline=""))
     header = reader.fieldnames or []
     twice = sorted({name for name in header if header.count(name) > 1})
     if twice:
         raise ValueError(f"{os.path.basename(path)} names the column {twice[0]!r} twice")
     measures = [name for name in header if name not in OUTCOME_FIELDS]
     rows = list(reader)
+    if text != _table_text(header, rows):
+        raise ValueError(
+            f"{os.path.basename(path)} is not written as the scorer writes a trial table "
+            "(csv's own quoting and \\r\\n line endings, one line per row)"
+        )
     trials = [
         {
             "tier": r["tier"],
@@ -234,6 +240,16 @@ def read_trials(path: str) -> list[dict]:
         for trial, r in zip(trials, rows):
             trial["quality"] = {name: _measure(r[name], name) for name in measures}
     return trials
+
+
+def _table_text(header: list[str], rows: list[dict]) -> str:
+    """The text `verify.write_trials` writes for these cells (csv's default dialect): a
+    table is read only in this form, so no two texts read as one table."""
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=header, restval=None, extrasaction="raise")
+    writer.writeheader()
+    writer.writerows(rows)
+    return buf.getvalue()
 
 
 def _measure(text: str | None, name: str) -> float | None:
@@ -448,8 +464,8 @@ def verified_summary(run_dir: str, summary: dict) -> dict:
 def _holds_measures(path: str) -> bool:
     """Whether a trial table has gait-quality columns (its header names more than the
     outcome's)."""
-    header = files.read_text(path).split("\n", 1)[0]
-    return any(name not in OUTCOME_FIELDS for name in next(csv.reader([header]), []))
+    header = next(csv.reader(io.StringIO(files.read_text(path), newline="")), [])
+    return any(name not in OUTCOME_FIELDS for name in header)
 
 
 def _without_measures(card: dict) -> dict:
@@ -881,6 +897,17 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
                 f"summary.json claims {summary.get('env_steps')} training steps, fewer than "
                 f"its config's total_steps {total}"
             )
+        steps = summary["env_steps"]
+        if summary.get("evaluations", 0) > steps:
+            return (
+                f"summary.json claims {steps} training control steps, fewer than its "
+                f"{summary['evaluations']} training episodes (evaluations)"
+            )
+        if summary.get("sim_steps", steps) < steps:
+            return (
+                f"summary.json claims {steps} training control steps, more than its "
+                f"{summary['sim_steps']} physics steps (sim_steps)"
+            )
     return None
 
 
@@ -1030,12 +1057,15 @@ def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, s
     """
     run_dirs = list(run_dirs)
     refused, kept, seeds = {}, [], {}
-    for run_dir in sorted(run_dirs, key=lambda d: (not _on_record(d), copies.started(d), d)):
+    ledgers = _ledgers(run_dirs)
+    base = os.path.commonpath([os.path.abspath(d) for d in run_dirs]) if run_dirs else ""
+    on_record = {d: _on_record(d, ledgers[d]) for d in run_dirs}
+    for run_dir in sorted(run_dirs, key=lambda d: (not on_record[d], copies.started(d), d)):
         reason = run_refusal(run_dir, version)
         if reason is None:
-            reason, fingerprint = _copy_refusal(run_dir, version, kept)
+            reason, fingerprint = _copy_refusal(run_dir, version, kept, base)
         if reason is None:
-            reason, seed = _seed_refusal(run_dir, seeds)
+            reason, seed = _seed_refusal(run_dir, seeds, base)
         if reason is None:
             kept.append((run_dir, _trained_as(run_dir), fingerprint))
             seeds[seed] = run_dir
@@ -1044,13 +1074,33 @@ def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, s
     return {d: refused[d] for d in run_dirs if d in refused}
 
 
-def _on_record(run_dir: str) -> bool:
-    """Whether the ledger beside the run's tree (`LEDGER`) records this run as re-scored
-    (in full, or its trials when upgraded) and reproduced, with the files it holds now:
-    such a run entered first, whatever start time a copy's config claims. A sampled or
-    differing row does not count."""
-    tree = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(run_dir))))
-    ledger = read_ledger(os.path.join(os.path.dirname(tree), LEDGER))
+def _tree(run_dir: str) -> str:
+    """The run tree a run lies in: the folder above its `<method>/<task>/<run>`."""
+    return os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(run_dir))))
+
+
+def _ledgers(run_dirs: list[str]) -> dict[str, dict]:
+    """Each run's ledger (`LEDGER`): the one beside the outermost tree of the runs judged
+    that holds its tree, so a ledger inside a submitted tree (beside a run nested deeper)
+    is never the board's."""
+    trees = {d: _tree(d) for d in run_dirs}
+    outer = {
+        d: min((t for t in set(trees.values()) if _within(tree, t)), key=len)
+        for d, tree in trees.items()
+    }
+    read = {t: read_ledger(os.path.join(os.path.dirname(t), LEDGER)) for t in set(outer.values())}
+    return {d: read[outer[d]] for d in run_dirs}
+
+
+def _within(path: str, folder: str) -> bool:
+    return path == folder or path.startswith(folder.rstrip(os.sep) + os.sep)
+
+
+def _on_record(run_dir: str, ledger: dict[str, dict]) -> bool:
+    """Whether the ledger (`_ledgers`) records this run as re-scored (in full, or its trials
+    when upgraded) and reproduced, with the files it holds now: such a run entered first,
+    whatever start time a copy's config claims. A sampled or differing row does not
+    count."""
     row = ledger.get(run_key(run_dir))
     return (
         bool(row)
@@ -1060,7 +1110,16 @@ def _on_record(run_dir: str) -> bool:
     )
 
 
-def _seed_refusal(run_dir: str, seeds: dict) -> tuple[str | None, tuple]:
+def shown(run_dir: str, base: str) -> str:
+    """A run as a refusal names it: its path under the runs judged (`base`, their common
+    folder) where that names its method, task and run, else `<method>/<task>/<run>`."""
+    rel = os.path.relpath(os.path.abspath(run_dir), base) if base else ""
+    if rel.count(os.sep) >= 2 and not rel.startswith(".."):
+        return rel
+    return os.path.join(*_tail(run_dir))
+
+
+def _seed_refusal(run_dir: str, seeds: dict, base: str = "") -> tuple[str | None, tuple]:
     """Why an admissible run is a second run of a seed of its configuration (None: it is
     not), and its key in `seeds` ({(method, task, configuration, training physics, seed):
     the run kept})."""
@@ -1069,12 +1128,12 @@ def _seed_refusal(run_dir: str, seeds: dict) -> tuple[str | None, tuple]:
     seed = int(match["seed"]) if match else settings.get("seed")  # the folder's, if named
     key = (*run_identity(run_dir), _trained_as(run_dir), seed)
     if seed is not None and key in seeds:
-        where = os.path.join(*_tail(seeds[key]))
+        where = shown(seeds[key], base)
         return f"a second run of seed {key[-1]} of its configuration ({where}: the first)", key
     return None, key
 
 
-def _copy_refusal(run_dir: str, version: int | None, kept: list) -> tuple:
+def _copy_refusal(run_dir: str, version: int | None, kept: list, base: str = "") -> tuple:
     """Why an admissible run is a copy of one of `kept` (None) and its fingerprint."""
     summary = _read_json(os.path.join(run_dir, "summary.json"))
     card = card_under(summary, version)
@@ -1089,7 +1148,7 @@ def _copy_refusal(run_dir: str, version: int | None, kept: list) -> tuple:
     for earlier, their_physics, theirs in kept:
         same = their_physics == trained_as and copies.copy_of(fingerprint, theirs)
         if same:
-            where = os.path.join(*_tail(earlier))
+            where = shown(earlier, base)
             return f"a copy of {where}: the same {same} as values (one run, not another)", None
     return None, fingerprint
 

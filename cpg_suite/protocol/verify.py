@@ -907,6 +907,35 @@ def sample_run(
     return sample.compare(fresh, read_trials(os.path.join(run_dir, "trials.csv")))
 
 
+def sample_history(run_dir: str, how: dict, name: str) -> list[str]:
+    """`sample_run` on the history cards a board ranks that the test trials do not vouch
+    for (`admission.unvouched_history`: a version-1 card, made without the supply limit):
+    as many trials drawn from each one's table as from the test card's, scored under that
+    card's settings (empty: none differ).
+
+    Args:
+      run_dir: A shipped run.
+      how: `_check_run`'s settings (`sample`, `entropy`, `threads`, `trust_code`, `trusted`).
+      name: The run's name in the draw (`sample.draw`); each card draws apart.
+    """
+    summary = runs.read_json(os.path.join(run_dir, "summary.json"))
+    config = runs.read_json(os.path.join(run_dir, "config.json"))
+    problems = []
+    for version, kept in admission.unvouched_history(summary):
+        table = history_trials_file(version)
+        stored = read_trials(os.path.join(run_dir, table))
+        keys = [(t["tier"], t["seed"]) for t in stored]
+        chosen = sample.draw(keys, how["sample"], how["entropy"], f"{name}/v{version}")
+        settings = card_settings(config, None, how["threads"], kept)
+        policy = shipped_policy(run_dir, how["trust_code"], how["trusted"])
+        artifact = gait_params(run_dir, settings.controller) if policy is None else policy
+        with policy_threads(run_dir):
+            fresh = score.seed_trials(artifact, settings, chosen)
+        differ = sample.compare(fresh, stored)
+        problems += [line.replace("trials.csv", table) for line in differ]
+    return problems
+
+
 def seed_trials(
     run_dir: str,
     choose: Callable[[tuple[str, ...]], dict[str, list[int]]],
@@ -942,6 +971,7 @@ def _check_run(run_dir: str, how: dict) -> tuple[list[str], str | None]:
         name = "/".join(os.path.normpath(os.path.abspath(run_dir)).split(os.sep)[-3:])
         chosen = sample.draw(keys, how["sample"], how["entropy"], name)
         problems = sample_run(run_dir, chosen, how["threads"], how["trust_code"], how["trusted"])
+        problems += sample_history(run_dir, how, name)
         problems += in_sample_problems(run_dir, how["threads"])
     try:
         after = admission.run_digest(run_dir)

@@ -1,0 +1,140 @@
+"""A third outside attack on the board (2026-11-28, scripts kept in the session's note):
+a table written in another CSV form, a ledger planted inside a submitted tree, a learner's
+budget that contradicts its own counts, a budget passed by more than a last rollout, a
+version-1 history table the sampled check never drew from. Each is refused or caught."""
+
+import json
+import os
+import shutil
+
+import pytest
+
+from analysis import leaderboard
+from cpg_suite.protocol import admission, sample, verify
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RUNS = os.path.join(ROOT, "results", "protocol", "runs")
+CMAES = os.path.join(RUNS, "cmaes", "darwin_walk")
+CMAES_RANDOMIZED = os.path.join(RUNS, "cmaes", "darwin_walk_randomized", "K50_s1_seed0")
+PPO = os.path.join(RUNS, "ppo", "darwin_walk", "cpg_seed0")
+V1_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_v1_seed3")
+
+
+def _read(path):
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def _write(path, value):
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(value, f, indent=1)
+
+
+def _copy(tmp_path, source, *where):
+    dest = tmp_path.joinpath("runs", *where)
+    shutil.copytree(source, dest)
+    return dest
+
+
+@pytest.mark.parametrize(
+    "rewrite",
+    [
+        lambda t: t.replace("\r\n", "\n"),  # Unix line endings
+        lambda t: t.replace("\r\n", "\r"),  # old Mac line endings: crashed every board build
+        lambda t: t + "\r\n",  # a blank line at the end
+        lambda t: t.replace(",True,", ',"True",', 1),  # a cell quoted csv would not quote
+        lambda t: t.replace("\r\n", ",\r\n", 1),  # an empty column named ""
+    ],
+)
+def test_a_trial_table_in_another_csv_form_is_refused_in_one_line(tmp_path, rewrite):
+    run = _copy(tmp_path, os.path.join(CMAES, "K50_s1_seed3"), "cmaes", "darwin_walk", "s_seed3")
+    path = run / "trials.csv"
+    path.write_bytes(rewrite(path.read_bytes().decode()).encode())
+    reason = admission.run_refusal(str(run))
+    assert reason is not None and "\n" not in reason
+    found, _ = leaderboard.find_runs(str(tmp_path / "runs"))
+    admitted, refused = leaderboard.admit(found)  # the board still builds
+    assert admitted == [] and [r["reason"] for r in refused] == [reason]
+
+
+def test_every_shipped_trial_table_is_in_the_scorer_s_form():
+    for dirpath, _, names in os.walk(RUNS):
+        for name in names:
+            if name.startswith("trials") and name.endswith(".csv"):
+                admission.read_trials(os.path.join(dirpath, name))
+
+
+def test_a_ledger_inside_a_submitted_tree_puts_no_run_on_record(tmp_path):
+    """A run nested a folder deeper, named like a shipped seed, with a ledger row for its own
+    digest beside it and an early start: the board's ledger is the one beside the outer
+    tree, so the shipped seed stays and the refusal names the nested run by its path."""
+    shipped = _copy(
+        tmp_path, os.path.join(CMAES, "K50_s1_seed0"), "cmaes", "darwin_walk", "K50_s1_seed0"
+    )
+    mine = _copy(tmp_path, CMAES_RANDOMIZED, "zz", "cmaes", "darwin_walk", "K50_s1_seed0")
+    config = _read(mine / "config.json")
+    config["settings"].update(task="darwin_walk", eval_seeds=1)
+    config["environment"]["started_utc"] = "2000-01-01T00:00:00Z"
+    _write(mine / "config.json", config)
+    summary = _read(mine / "summary.json")
+    _write(mine / "summary.json", {**summary, "evaluations": 2501})
+    row = (
+        f"cmaes/darwin_walk/K50_s1_seed0,{admission.run_digest(str(mine))},full,250,reproduced,x,x"
+    )
+    (tmp_path / "runs" / "rescored.csv").write_text(
+        ",".join(admission.LEDGER_FIELDS) + "\n" + row + "\n"
+    )
+    # the board's ledger, beside the outer tree, records the shipped seed as re-scored
+    shutil.copy(os.path.join(os.path.dirname(RUNS), "rescored.csv"), tmp_path / "rescored.csv")
+    refused = admission.refusals([str(shipped), str(mine)])
+    assert list(refused) == [str(mine)]
+    assert "(cmaes/darwin_walk/K50_s1_seed0: the first)" in refused[str(mine)]
+    assert admission.shown(str(mine), str(tmp_path / "runs")) == os.path.join(
+        "zz", "cmaes", "darwin_walk", "K50_s1_seed0"
+    )
+
+
+def test_a_learner_s_budget_may_not_contradict_its_own_counts(tmp_path):
+    """A trial method restated as a learner of one control step keeps its 5,002 trials:
+    refused; so is a learner whose control steps outnumber its physics steps."""
+    run = _copy(tmp_path, CMAES_RANDOMIZED, "cmaes", "darwin_walk_randomized", "K50_s1_seed0")
+    config = _read(run / "config.json")
+    for key in ("population", "rounds", "eval_seeds"):
+        config["settings"].pop(key, None)
+    config["settings"]["total_steps"] = 1
+    _write(run / "config.json", config)
+    summary = _read(run / "summary.json")
+    _write(run / "summary.json", {**summary, "env_steps": 1})
+    assert "fewer than its 5002 training episodes" in admission.run_refusal(str(run))
+    _write(run / "summary.json", {**summary, "env_steps": 1, "evaluations": 1, "sim_steps": 0})
+    assert "more than its 0 physics steps" in admission.run_refusal(str(run))
+
+
+def test_a_learner_past_its_budget_by_more_than_a_rollout_counts_by_its_steps():
+    summary = _read(os.path.join(PPO, "summary.json"))
+    given = {**summary, "budget_control_steps": 2_500_000}
+    assert leaderboard.budget_track([given]) == "study"  # 2,502,656: the last rollout
+    assert leaderboard.budget_track([{**given, "env_steps": 2_539_520}]) == "study"
+    assert leaderboard.budget_track([{**given, "env_steps": 10_000_000}]) == "4x"
+    assert leaderboard.budget_track([{**given, "env_steps": 10_000_001}]) == "over_4x"
+
+
+def test_the_sampled_check_draws_from_a_version_1_history_table_too(tmp_path):
+    """The version-1 board ranks a card its test trials do not vouch for: the sampled check
+    re-scores trials drawn from its table, so an edited row is caught (~5 s)."""
+    run = _copy(tmp_path, V1_RUN, "cem", "darwin_walk", "K50_n0.8_e2_v1_seed3")
+    how = {"sample": 1, "entropy": 7, "threads": 1, "trust_code": False, "trusted": None}
+    name = "cem/darwin_walk/K50_n0.8_e2_v1_seed3"
+    assert verify.sample_history(str(run), how, name) == []
+    table = run / "trials_v1.csv"
+    stored = admission.read_trials(str(table))
+    chosen = sample.draw([(t["tier"], t["seed"]) for t in stored], 1, 7, f"{name}/v1")
+    [(tier, [seed])] = chosen.items()
+    edited = [
+        {**t, "distance_m": t["distance_m"] + 1.0} if (t["tier"], t["seed"]) == (tier, seed) else t
+        for t in stored
+    ]
+    verify.write_trials(str(table), edited)
+    assert verify.sample_history(str(run), how, name) == [
+        f"{tier} seed {seed} differs from trials_v1.csv"
+    ]
