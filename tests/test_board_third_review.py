@@ -7,10 +7,13 @@ import json
 import os
 import shutil
 
+import numpy as np
 import pytest
 
 from analysis import leaderboard
-from cpg_suite.protocol import admission, sample, verify
+from cpg_suite import cpg
+from cpg_suite.protocol import admission, copies, sample, verify
+from cpg_suite.runfiles import exported
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RUNS = os.path.join(ROOT, "results", "protocol", "runs")
@@ -138,3 +141,48 @@ def test_the_sampled_check_draws_from_a_version_1_history_table_too(tmp_path):
     assert verify.sample_history(str(run), how, name) == [
         f"{tier} seed {seed} differs from trials_v1.csv"
     ]
+
+
+def _table_run(tmp_path, name, actions):
+    run = tmp_path / name
+    run.mkdir()
+    np.save(run / "selected_actions.npy", actions, allow_pickle=False)
+    return run
+
+
+def test_a_gait_entered_again_as_its_action_table_is_a_copy(tmp_path):
+    """A shipped open-loop gait as its own table (`ActionTable.from_gait`), its last 20 rows
+    held still so its trials move by more than the trial tolerance: the same gait; a table
+    of another seed's gait is not."""
+    seed0 = os.path.join(CMAES, "K50_s1_seed0")
+    trials = admission.read_trials(os.path.join(seed0, "trials.csv"))
+    moved = [{**t, "distance_m": t["distance_m"] + 0.1} for t in trials]
+    gait = copies.fingerprint(seed0, ("selected_params.json",), trials)
+    table = exported.ActionTable.from_gait(cpg.load_amplitudes(f"{seed0}/selected_params.json"))
+    actions = table.actions.copy()
+    actions[980:] = actions[979]
+    forged = _table_run(tmp_path, "forged", actions)
+    forged_print = copies.fingerprint(str(forged), ("selected_actions.npy",), moved)
+    assert copies.copy_of(forged_print, gait) == "gait or policy"
+    assert copies.copy_of(gait, forged_print) == "gait or policy"
+    seed1 = os.path.join(CMAES, "K50_s1_seed1")
+    other = exported.ActionTable.from_gait(cpg.load_amplitudes(f"{seed1}/selected_params.json"))
+    honest = _table_run(tmp_path, "honest", other.actions)
+    honest_print = copies.fingerprint(str(honest), ("selected_actions.npy",), moved)
+    assert copies.copy_of(honest_print, gait) is None
+
+
+def test_a_feedback_gait_has_no_action_table_to_compare():
+    feedback_run = os.path.join(RUNS, "cmaes", "darwin_walk_rough", "K50_s1_feedback_seed1")
+    trials = admission.read_trials(os.path.join(feedback_run, "trials.csv"))
+    gains = copies.fingerprint(feedback_run, ("selected_params.json",), trials)
+    fake = copies.Fingerprint(
+        (),
+        np.zeros(0),
+        "selected_actions.npy",
+        (("actions", (1000, 12), "f", None),),
+        (np.zeros(12000),),
+        None,
+        None,
+    )
+    assert not copies.across_kinds(gains, fake)

@@ -20,6 +20,11 @@ in JSON, a comment added to code: the values stay, and so does the copy. The tol
 catch what the bytes hide too — a gait nudged by up to 2 % of its largest amplitude and
 scored again is the same gait.
 
+Across kinds (`across_kinds`): an open-loop gait and an action table are one when the
+table's rows are the gait's own actions (`ActionTable.from_gait`) by the same rules, so a
+gait entered again as its table, a few rows changed, is a copy (the third outside attack
+of 2026-11-28). A feedback gait's actions depend on what it senses: it has no table.
+
 Near-copies, value by value (`near_copy`): two artifacts of one structure are also one
 when, comparing each value with its counterpart relative to the larger of the two
 (`coordinate_differences`; values both within `VALUE_RTOL` of zero, such as an open-loop
@@ -53,13 +58,14 @@ from __future__ import annotations
 
 import ast
 import dataclasses
+import functools
 import hashlib
 import os
 import zipfile
 
 import numpy as np
 
-from cpg_suite import feedback
+from cpg_suite import cpg, feedback
 from cpg_suite.protocol import files as run_files
 from cpg_suite.runfiles import exported
 
@@ -218,12 +224,47 @@ def same_trials(a: Fingerprint, b: Fingerprint) -> bool:
 
 
 def same_artifact(a: Fingerprint, b: Fingerprint) -> bool:
-    """Whether two runs' gaits or policies are equal as values (within `VALUE_RTOL`)."""
+    """Whether two runs' gaits or policies are equal as values (within `VALUE_RTOL`, or a
+    near-copy), an open-loop gait and an action table by the gait's own table
+    (`across_kinds`)."""
+    if a.kind != b.kind and across_kinds(a, b):
+        return True
     if (a.kind, a.structure, a.digest) != (b.kind, b.structure, b.digest):
         return False
     if a.values is None:
         return True
     return value_distance(a.values, b.values) <= VALUE_RTOL or near_copy(a.values, b.values)
+
+
+def across_kinds(a: Fingerprint, b: Fingerprint) -> bool:
+    """Whether one run's action table is the other's open-loop gait as values: the table's
+    first rows against the gait's own table (`exported.ActionTable.from_gait`, the actions
+    its scorer takes), within `VALUE_RTOL` or a near-copy. A gait with gains (the feedback
+    CPG's) has no table; nor has a policy."""
+    gait = next((f for f in (a, b) if f.kind.endswith(".json") and f.values is not None), None)
+    table = next((f for f in (a, b) if f.kind.endswith(".npy") and f.values is not None), None)
+    if gait is None or table is None:
+        return False
+    params = gait.values[0]
+    if params.shape != (feedback.N_PARAMS,) or np.any(params[cpg.N_AMPLITUDES :] != 0.0):
+        return False
+    actions = _gait_table(params[: cpg.N_AMPLITUDES].tobytes())
+    shape = table.structure[0][1]
+    fits = len(shape) == 2 and shape[0] >= len(actions) and shape[1] == actions.shape[1]
+    if not len(actions) or not fits:
+        return False
+    rows = (table.values[0].reshape(shape)[: len(actions)].ravel(),)
+    gait_rows = (actions.ravel(),)
+    return value_distance(rows, gait_rows) <= VALUE_RTOL or near_copy(rows, gait_rows)
+
+
+@functools.lru_cache(maxsize=128)
+def _gait_table(amplitudes: bytes) -> np.ndarray:
+    """An open-loop gait's action table (its amplitudes' bytes: a cache key)."""
+    gait = np.frombuffer(amplitudes, dtype=np.float64)
+    if not np.all(np.isfinite(gait)):
+        return np.zeros((0, 12))
+    return exported.ActionTable.from_gait(gait).actions
 
 
 def coordinate_differences(xs: tuple, ys: tuple) -> np.ndarray:
