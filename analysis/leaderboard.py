@@ -42,6 +42,7 @@ from absl import flags
 from analysis import published
 from cpg_suite import cli, protocol
 from cpg_suite.protocol import admission, aggregate, files
+from cpg_suite.protocol import card as card_stats
 from cpg_suite.protocol.stats import mean_std_ci95
 
 _SEED = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
@@ -160,6 +161,8 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
                 "rescored_on": admission.rescored_in_full(dirpath, ledger),
             }
         )
+    for run in found:  # the root's ledger, which `admit` judges every run by
+        run["board_ledger"] = ledger
     return found, skipped
 
 
@@ -278,6 +281,10 @@ STUDY_TRIALS, STUDY_CONTROL_STEPS = 2501, 2_500_000
 # that budget (it trains whole rollouts): a choice; the shipped runs pass it by at most
 # 1.6 % (MJX PPO: 2,539,520 of 2.5 M), and a run past it counts by its `env_steps`.
 LAST_ROLLOUT = 0.02
+# A run's training physics steps (`sim_steps`) count too, as control steps of the DARwIn-OP
+# model (`card.PHYSICS_STEPS_PER_CONTROL_STEP`): a run that simulated more than its
+# declared budget allows counts by what it simulated.
+PHYSICS_STEPS = card_stats.PHYSICS_STEPS_PER_CONTROL_STEP
 TRACKS = ("study", "4x", "over_4x")
 MIN_SEEDS = 5  # fewer seeds: provisional, not ranked
 DARWIN_FIELDS = [
@@ -362,13 +369,20 @@ def budget_track(summaries: list[dict]) -> str:
 def _budget_ratio(summary: dict) -> float:
     """A run's training budget over the study's (inf where it does not say it as a count:
     a refused run's summary, which a report of unadmitted cards still reads)."""
+    physics = summary.get("sim_steps", 0)
+    physics = physics / PHYSICS_STEPS if _is_count(physics) else math.inf  # control steps
     if "env_steps" in summary:
         steps, given = summary["env_steps"], summary.get("budget_control_steps")
-        if _is_count(steps) and _is_count(given) and steps <= given * (1 + LAST_ROLLOUT):
+        if not _is_count(steps):
+            return math.inf
+        steps = max(steps, physics)  # what it simulated counts, whatever it says it took
+        if _is_count(given) and steps <= given * (1 + LAST_ROLLOUT):
             steps = given  # the learner's last whole rollout passed its budget
-        return steps / STUDY_CONTROL_STEPS if _is_count(steps) else math.inf
+        return steps / STUDY_CONTROL_STEPS
     trials = summary.get("evaluations")
-    return trials / STUDY_TRIALS if _is_count(trials) else math.inf
+    if not _is_count(trials):
+        return math.inf
+    return max(trials / STUDY_TRIALS, physics / (STUDY_TRIALS * card_stats.TRIAL_STEPS))
 
 
 def _is_count(value) -> bool:
@@ -524,7 +538,9 @@ def is_darwin_run(run: dict) -> bool:
     return run["task"].startswith("darwin_walk") or run["method"] == PRESET_METHOD
 
 
-def admit(found: list[dict], version: int | None = None) -> tuple[list[dict], list[dict]]:
+def admit(
+    found: list[dict], version: int | None = None, ledger: dict[str, dict] | None = None
+) -> tuple[list[dict], list[dict]]:
     """The DARwIn-OP runs the board of `version` admits, and those it refuses, each with
     its one-line reason (`cpg_suite.protocol.admission`: the files verify needs, a card
     made under the protocol's card settings that its trial table produces, no copies).
@@ -533,15 +549,19 @@ def admit(found: list[dict], version: int | None = None) -> tuple[list[dict], li
     Args:
       found: The runs (`find_runs`), in path order.
       version: The board's benchmark version (None: `admission.BOARD_VERSION`).
+      ledger: The ledger beside the runs' root (`ledger_path`; None: the one `find_runs`
+        gave the runs, else each run's own).
 
     Returns:
       `(admitted, refused)`: the admitted runs (as in `found`) and one row per refused run
       (`NOT_ADMITTED_FIELDS`), both in path order; runs of other tasks are in neither.
     """
     board = admission.BOARD_VERSION if version is None else version
+    if ledger is None:  # runs found under one root (`find_runs`) carry its ledger
+        ledger = next((run["board_ledger"] for run in found if "board_ledger" in run), None)
     darwin = [run for run in found if is_darwin_run(run)]
     reasons = admission.refusals(
-        [run["dir"] for run in darwin if run["method"] != PRESET_METHOD], board
+        [run["dir"] for run in darwin if run["method"] != PRESET_METHOD], board, ledger
     )
     admitted, refused = [], []
     dirs = [os.path.abspath(run["dir"]) for run in darwin if run["method"] != PRESET_METHOD]

@@ -47,6 +47,12 @@ def _copy(tmp_path, source, *where):
         lambda t: t + "\r\n",  # a blank line at the end
         lambda t: t.replace(",True,", ',"True",', 1),  # a cell quoted csv would not quote
         lambda t: t.replace("\r\n", ",\r\n", 1),  # an empty column named ""
+        # the re-attack (helper-32): cells that read as the same trials, spelled otherwise
+        lambda t: _cell(t, 1, lambda c: c.replace("2000000", "2_000_000")),
+        lambda t: _cell(t, 2, lambda c: c + "000"),  # trailing zeros on a distance
+        lambda t: _cell(t, 3, lambda c: "no" if c == "False" else "yes"),
+        lambda t: _cell(t, 4, lambda c: "+" + c),
+        lambda t: "x" * 140_000 + t,  # a cell past csv's field limit: csv.Error
     ],
 )
 def test_a_trial_table_in_another_csv_form_is_refused_in_one_line(tmp_path, rewrite):
@@ -58,6 +64,14 @@ def test_a_trial_table_in_another_csv_form_is_refused_in_one_line(tmp_path, rewr
     found, _ = leaderboard.find_runs(str(tmp_path / "runs"))
     admitted, refused = leaderboard.admit(found)  # the board still builds
     assert admitted == [] and [r["reason"] for r in refused] == [reason]
+
+
+def _cell(text, column, change):
+    """The table's text with one cell of its first trial's row changed."""
+    lines = text.split("\r\n")
+    cells = lines[1].split(",")
+    cells[column] = change(cells[column])
+    return "\r\n".join([lines[0], ",".join(cells), *lines[2:]])
 
 
 def test_every_shipped_trial_table_is_in_the_scorer_s_form():
@@ -89,12 +103,36 @@ def test_a_ledger_inside_a_submitted_tree_puts_no_run_on_record(tmp_path):
     )
     # the board's ledger, beside the outer tree, records the shipped seed as re-scored
     shutil.copy(os.path.join(os.path.dirname(RUNS), "rescored.csv"), tmp_path / "rescored.csv")
-    refused = admission.refusals([str(shipped), str(mine)])
+    refused = admission.refusals(
+        [str(shipped), str(mine)], ledger=admission.ledger_beside(str(tmp_path / "runs"))
+    )
     assert list(refused) == [str(mine)]
+    found, _ = leaderboard.find_runs(str(tmp_path / "runs"))  # the board, as it reads them
+    _, board_refused = leaderboard.admit(found)
+    assert [r["run"] for r in board_refused] == ["zz/cmaes/darwin_walk/K50_s1_seed0"]
     assert "(cmaes/darwin_walk/K50_s1_seed0: the first)" in refused[str(mine)]
     assert admission.shown(str(mine), str(tmp_path / "runs")) == os.path.join(
         "zz", "cmaes", "darwin_walk", "K50_s1_seed0"
     )
+
+
+def test_a_folder_at_another_depth_does_not_move_the_board_s_ledger(tmp_path):
+    """The re-attack (helper-32): a folder two levels under the root made every run read a
+    ledger beside the root's parent (none), so a thief's copy with an earlier start won.
+    The board reads the ledger beside the root it was given."""
+    _copy(tmp_path, os.path.join(CMAES, "K50_s1_seed0"), "cmaes", "darwin_walk", "K50_s1_seed0")
+    thief = _copy(tmp_path, os.path.join(CMAES, "K50_s1_seed0"), "thief", "darwin_walk", "s_seed0")
+    config = _read(thief / "config.json")
+    config["environment"]["started_utc"] = "2000-01-01T00:00:00Z"
+    _write(thief / "config.json", config)
+    decoy = tmp_path / "runs" / "darwin_walk_x" / "anything"
+    decoy.mkdir(parents=True)
+    (decoy / "config.json").write_text("{}")
+    shutil.copy(os.path.join(os.path.dirname(RUNS), "rescored.csv"), tmp_path / "rescored.csv")
+    found, _ = leaderboard.find_runs(str(tmp_path / "runs"))
+    _, refused = leaderboard.admit(found)
+    assert "thief/darwin_walk/s_seed0" in [r["run"] for r in refused]
+    assert "cmaes/darwin_walk/K50_s1_seed0" not in [r["run"] for r in refused]
 
 
 def test_a_learner_s_budget_may_not_contradict_its_own_counts(tmp_path):
@@ -120,6 +158,13 @@ def test_a_learner_past_its_budget_by_more_than_a_rollout_counts_by_its_steps():
     assert leaderboard.budget_track([{**given, "env_steps": 2_539_520}]) == "study"
     assert leaderboard.budget_track([{**given, "env_steps": 10_000_000}]) == "4x"
     assert leaderboard.budget_track([{**given, "env_steps": 10_000_001}]) == "over_4x"
+    # what it simulated counts too: 4 times the physics steps of 2.5 M control steps
+    assert leaderboard.budget_track([{**given, "sim_steps": 8 * 10_000_000}]) == "4x"
+    # a trial method relabelled a learner of its own trial count (helper-32)
+    relabelled = {"env_steps": 10_004, "budget_control_steps": 10_004, "sim_steps": 55_000_000}
+    assert leaderboard.budget_track([relabelled]) == "4x"
+    cmaes = _read(os.path.join(CMAES_RANDOMIZED, "summary.json"))
+    assert leaderboard.budget_track([cmaes]) == "4x"  # 5,002 trials, as before
 
 
 def test_the_sampled_check_draws_from_a_version_1_history_table_too(tmp_path):
@@ -165,6 +210,14 @@ def test_a_gait_entered_again_as_its_action_table_is_a_copy(tmp_path):
     forged_print = copies.fingerprint(str(forged), ("selected_actions.npy",), moved)
     assert copies.copy_of(forged_print, gait) == "gait or policy"
     assert copies.copy_of(gait, forged_print) == "gait or policy"
+    # a re-attack (helper-32): the table started a step or two later or earlier
+    longer = exported.ActionTable.from_gait(
+        cpg.load_amplitudes(f"{seed0}/selected_params.json"), 1002
+    ).actions
+    for shifted in (longer[1:1001], longer[2:1002], np.vstack([longer[:1], longer[:999]])):
+        shifted_run = _table_run(tmp_path, f"shifted{len(list(tmp_path.iterdir()))}", shifted)
+        shifted_print = copies.fingerprint(str(shifted_run), ("selected_actions.npy",), moved)
+        assert copies.copy_of(shifted_print, gait) == "gait or policy"
     seed1 = os.path.join(CMAES, "K50_s1_seed1")
     other = exported.ActionTable.from_gait(cpg.load_amplitudes(f"{seed1}/selected_params.json"))
     honest = _table_run(tmp_path, "honest", other.actions)

@@ -213,13 +213,16 @@ def read_trials(path: str) -> list[dict]:
         wrong kind, or a file the board may not read (`files.refusal`).
     """
     text = files.read_text(path)
-    reader = csv.DictReader(io.StringIO(text, newline=""))
-    header = reader.fieldnames or []
+    try:
+        reader = csv.DictReader(io.StringIO(text, newline=""))
+        header = reader.fieldnames or []
+        rows = list(reader)
+    except csv.Error as e:  # a cell over csv's field limit, a NUL byte
+        raise ValueError(f"{os.path.basename(path)} is not readable as CSV ({e})") from None
     twice = sorted({name for name in header if header.count(name) > 1})
     if twice:
         raise ValueError(f"{os.path.basename(path)} names the column {twice[0]!r} twice")
     measures = [name for name in header if name not in OUTCOME_FIELDS]
-    rows = list(reader)
     if text != _table_text(header, rows):
         raise ValueError(
             f"{os.path.basename(path)} is not written as the scorer writes a trial table "
@@ -239,7 +242,22 @@ def read_trials(path: str) -> list[dict]:
     if measures:
         for trial, r in zip(trials, rows):
             trial["quality"] = {name: _measure(r[name], name) for name in measures}
+    if text != table_text(trials):
+        raise ValueError(
+            f"{os.path.basename(path)} does not spell its cells as the scorer writes them "
+            "(a number's shortest repr, True/False, a failure's cause)"
+        )
     return trials
+
+
+def table_text(trials: list[dict]) -> str:
+    """A trial table's text as the scorer writes it (`trial_cells`; floats with all their
+    digits, which read back exactly): the one text a table of these trials may have."""
+    rows = [
+        {k: repr(v) if isinstance(v, float) else v for k, v in trial_cells(t).items()}
+        for t in trials
+    ]
+    return _table_text(list(rows[0]), rows) if rows else ""
 
 
 def _table_text(header: list[str], rows: list[dict]) -> str:
@@ -464,7 +482,10 @@ def verified_summary(run_dir: str, summary: dict) -> dict:
 def _holds_measures(path: str) -> bool:
     """Whether a trial table has gait-quality columns (its header names more than the
     outcome's)."""
-    header = next(csv.reader(io.StringIO(files.read_text(path), newline="")), [])
+    try:
+        header = next(csv.reader(io.StringIO(files.read_text(path), newline="")), [])
+    except csv.Error as e:
+        raise ValueError(f"{os.path.basename(path)} is not readable as CSV ({e})") from None
     return any(name not in OUTCOME_FIELDS for name in header)
 
 
@@ -991,9 +1012,14 @@ def read_ledger(path: str) -> dict[str, dict]:
     if not os.path.lexists(path):
         return {}
     rows = csv.DictReader(io.StringIO(files.read_text(path), newline=""))
-    return {
-        row["run"]: {k: row.get(k) or "" for k in LEDGER_FIELDS} for row in rows if row.get("run")
-    }
+    try:
+        return {
+            row["run"]: {k: row.get(k) or "" for k in LEDGER_FIELDS}
+            for row in rows
+            if row.get("run")
+        }
+    except csv.Error as e:
+        raise ValueError(f"{os.path.basename(path)} is not readable as CSV ({e})") from None
 
 
 def rescored_in_full(run_dir: str, ledger: dict[str, dict]) -> str | None:
@@ -1036,7 +1062,9 @@ def trained_version(run_dir: str) -> int:
         return 1
 
 
-def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, str]:
+def refusals(
+    run_dirs: Iterable[str], version: int | None = None, ledger: dict[str, dict] | None = None
+) -> dict[str, str]:
     """The runs the board of `version` refuses, each with its reason (`run_refusal`), and
     the copies: a run whose trial outcomes, or whose gait or policy, equal as values those
     of an earlier run trained alike (`cpg_suite.protocol.copies`),
@@ -1051,13 +1079,15 @@ def refusals(run_dirs: Iterable[str], version: int | None = None) -> dict[str, s
     Args:
       run_dirs: Run folders.
       version: The board's benchmark version (None: each run's card as it stands).
+      ledger: The board's ledger (`read_ledger` of the one beside the root it was given);
+        None: each run's own, beside its tree.
 
     Returns:
       {run folder: reason} for the refused runs.
     """
     run_dirs = list(run_dirs)
     refused, kept, seeds = {}, [], {}
-    ledgers = _ledgers(run_dirs)
+    ledgers = {d: ledger for d in run_dirs} if ledger is not None else _ledgers(run_dirs)
     base = os.path.commonpath([os.path.abspath(d) for d in run_dirs]) if run_dirs else ""
     on_record = {d: _on_record(d, ledgers[d]) for d in run_dirs}
     for run_dir in sorted(run_dirs, key=lambda d: (not on_record[d], copies.started(d), d)):
@@ -1080,20 +1110,28 @@ def _tree(run_dir: str) -> str:
 
 
 def _ledgers(run_dirs: list[str]) -> dict[str, dict]:
-    """Each run's ledger (`LEDGER`): the one beside the outermost tree of the runs judged
-    that holds its tree, so a ledger inside a submitted tree (beside a run nested deeper)
-    is never the board's."""
+    """Each run's own ledger (`LEDGER`), beside its tree: for a caller that names no root.
+    The board passes the one beside the root it was given, so that neither a ledger inside
+    a submitted tree nor a folder at another depth changes which ledger it reads."""
     trees = {d: _tree(d) for d in run_dirs}
-    outer = {
-        d: min((t for t in set(trees.values()) if _within(tree, t)), key=len)
-        for d, tree in trees.items()
+    read = {
+        t: _ledger_or_none(os.path.join(os.path.dirname(t), LEDGER)) for t in set(trees.values())
     }
-    read = {t: read_ledger(os.path.join(os.path.dirname(t), LEDGER)) for t in set(outer.values())}
-    return {d: read[outer[d]] for d in run_dirs}
+    return {d: read[trees[d]] for d in run_dirs}
 
 
-def _within(path: str, folder: str) -> bool:
-    return path == folder or path.startswith(folder.rstrip(os.sep) + os.sep)
+def ledger_beside(root: str) -> dict[str, dict]:
+    """The ledger of a run tree, beside it (`LEDGER`): what `refusals` of the runs under
+    `root` judges by (no rows where there is none or it cannot be read)."""
+    return _ledger_or_none(os.path.join(os.path.dirname(os.path.abspath(root)), LEDGER))
+
+
+def _ledger_or_none(path: str) -> dict[str, dict]:
+    """`read_ledger`, or no rows where it cannot be read (no run is then on record)."""
+    try:
+        return read_ledger(path)
+    except (OSError, ValueError):
+        return {}
 
 
 def _on_record(run_dir: str, ledger: dict[str, dict]) -> bool:

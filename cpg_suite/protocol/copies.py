@@ -236,11 +236,18 @@ def same_artifact(a: Fingerprint, b: Fingerprint) -> bool:
     return value_distance(a.values, b.values) <= VALUE_RTOL or near_copy(a.values, b.values)
 
 
+# How far a table may be shifted in time against a gait's and still be compared, control
+# steps: one stride of the CPG (68.75 steps, `cpg.CPGConfig`'s ω), so a table started at any
+# phase of the gait is compared with the gait at that phase.
+MAX_LAG = 69
+
+
 def across_kinds(a: Fingerprint, b: Fingerprint) -> bool:
     """Whether one run's action table is the other's open-loop gait as values: the table's
-    first rows against the gait's own table (`exported.ActionTable.from_gait`, the actions
-    its scorer takes), within `VALUE_RTOL` or a near-copy. A gait with gains (the feedback
-    CPG's) has no table; nor has a policy."""
+    rows against the gait's own table (`exported.ActionTable.from_gait`, the actions its
+    scorer takes), started at any step of its first stride (`MAX_LAG`), the rows they
+    share within `VALUE_RTOL` or a near-copy. A gait with gains (the feedback CPG's) has no
+    table; nor has a policy."""
     gait = next((f for f in (a, b) if f.kind.endswith(".json") and f.values is not None), None)
     table = next((f for f in (a, b) if f.kind.endswith(".npy") and f.values is not None), None)
     if gait is None or table is None:
@@ -248,23 +255,29 @@ def across_kinds(a: Fingerprint, b: Fingerprint) -> bool:
     params = gait.values[0]
     if params.shape != (feedback.N_PARAMS,) or np.any(params[cpg.N_AMPLITUDES :] != 0.0):
         return False
-    actions = _gait_table(params[: cpg.N_AMPLITUDES].tobytes())
     shape = table.structure[0][1]
-    fits = len(shape) == 2 and shape[0] >= len(actions) and shape[1] == actions.shape[1]
-    if not len(actions) or not fits:
+    actions = _gait_table(params[: cpg.N_AMPLITUDES].tobytes(), shape[0] if shape else 0)
+    if not len(actions) or len(shape) != 2 or shape[1] != actions.shape[1]:
         return False
-    rows = (table.values[0].reshape(shape)[: len(actions)].ravel(),)
-    gait_rows = (actions.ravel(),)
-    return value_distance(rows, gait_rows) <= VALUE_RTOL or near_copy(rows, gait_rows)
+    rows = table.values[0].reshape(shape)
+    n = len(rows)
+    for lag in range(-MAX_LAG, MAX_LAG + 1):  # the table's row t is the gait's row t + lag
+        ours = rows[:n] if lag >= 0 else rows[-lag:]
+        theirs = actions[lag : lag + n] if lag >= 0 else actions[: n + lag]
+        pair = (ours.ravel(),), (theirs.ravel(),)
+        if value_distance(*pair) <= VALUE_RTOL or near_copy(*pair):
+            return True
+    return False
 
 
 @functools.lru_cache(maxsize=128)
-def _gait_table(amplitudes: bytes) -> np.ndarray:
-    """An open-loop gait's action table (its amplitudes' bytes: a cache key)."""
+def _gait_table(amplitudes: bytes, steps: int) -> np.ndarray:
+    """An open-loop gait's action table, `steps + MAX_LAG` rows (its amplitudes' bytes: a
+    cache key); empty for a non-finite gait or no steps."""
     gait = np.frombuffer(amplitudes, dtype=np.float64)
-    if not np.all(np.isfinite(gait)):
+    if not np.all(np.isfinite(gait)) or steps <= 0:
         return np.zeros((0, 12))
-    return exported.ActionTable.from_gait(gait).actions
+    return exported.ActionTable.from_gait(gait, steps + MAX_LAG).actions
 
 
 def coordinate_differences(xs: tuple, ys: tuple) -> np.ndarray:

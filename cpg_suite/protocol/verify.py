@@ -351,11 +351,7 @@ def _jsonable(value):
 def write_trials(path: str, trials: list[dict]) -> None:
     """Writes the trial table (`admission.trial_cells`: the outcome, then a column per
     gait-quality measure); floats with all their digits (they read back exactly)."""
-    rows = [
-        {k: repr(v) if isinstance(v, float) else v for k, v in admission.trial_cells(t).items()}
-        for t in trials
-    ]
-    runs.write_rows_csv(path, rows)
+    runs.write_text(path, admission.table_text(trials))
 
 
 read_trials = admission.read_trials  # the trial table as `score.score_gait_trials` returns it
@@ -1030,7 +1026,7 @@ def audit_runs(
     folders = run_folders(artifacts)
     if not folders:
         raise ValueError(f"no shipped runs under {artifacts}")
-    refused = admission.refusals(folders)
+    refused = admission.refusals(folders, ledger=admission.ledger_beside(artifacts))
     trusted = trusted_digests(trusted_list)
     chosen = [
         d for d in folders if d not in refused and code_refusal(d, trust_code, trusted) is None
@@ -1277,7 +1273,7 @@ def verify(
     folders = run_folders(artifacts)
     if not folders:
         raise ValueError(f"no shipped runs under {artifacts}")
-    refused = admission.refusals(folders)
+    refused = admission.refusals(folders, ledger=admission.ledger_beside(artifacts))
     trusted = trusted_digests(trusted_list)
     for run_dir in folders:
         reason = None if run_dir in refused else code_refusal(run_dir, trust_code, trusted)
