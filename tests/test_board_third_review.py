@@ -1,7 +1,9 @@
-"""A third outside attack on the board (2026-11-28, scripts kept in the session's note):
-a table written in another CSV form, a ledger planted inside a submitted tree, a learner's
-budget that contradicts its own counts, a budget passed by more than a last rollout, a
-version-1 history table the sampled check never drew from. Each is refused or caught."""
+"""A third outside attack on the board and a re-attack of its fixes (2026-11-28; each test
+is an attack's minimal form): a table written in another CSV form or spelling, a ledger
+planted inside a submitted tree or moved by a folder at another depth, a learner's budget
+that contradicts its own counts or passes its budget, a version-1 history table the
+sampled check never drew from, a gait entered again as its (shifted) action table. Each is
+refused or caught."""
 
 import json
 import os
