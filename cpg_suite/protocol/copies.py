@@ -15,8 +15,9 @@ A run's fingerprint holds
   Stable-Baselines3 model's zip members and normalizer as bytes (reading them as values
   would unpickle them).
 
-Padding in a `.npy` header, a trailing `0` in a CSV number, keys reordered or spaces added
-in JSON, a comment added to code: the values stay, and so does the copy. The tolerances
+Padding in a `.npy` header, keys reordered or spaces added in JSON, a comment added to
+code: the values stay, and so does the copy (a trial table has one text only: admission
+reads it in the scorer's spelling or not at all). The tolerances
 catch what the bytes hide too — a gait nudged by up to 2 % of its largest amplitude and
 scored again is the same gait.
 
