@@ -42,7 +42,6 @@ from absl import flags
 from analysis import published
 from cpg_suite import cli, protocol
 from cpg_suite.protocol import admission, aggregate, files
-from cpg_suite.protocol import card as card_stats
 from cpg_suite.protocol.stats import mean_std_ci95
 
 _SEED = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
@@ -282,9 +281,9 @@ STUDY_TRIALS, STUDY_CONTROL_STEPS = 2501, 2_500_000
 # 1.6 % (MJX PPO: 2,539,520 of 2.5 M), and a run past it counts by its `env_steps`.
 LAST_ROLLOUT = 0.02
 # A run's training physics steps (`sim_steps`) count too, as control steps of the DARwIn-OP
-# model (`card.PHYSICS_STEPS_PER_CONTROL_STEP`): a run that simulated more than its
+# model (`admission.PHYSICS_STEPS_PER_CONTROL_STEP`): a run that simulated more than its
 # declared budget allows counts by what it simulated.
-PHYSICS_STEPS = card_stats.PHYSICS_STEPS_PER_CONTROL_STEP
+PHYSICS_STEPS = admission.PHYSICS_STEPS_PER_CONTROL_STEP
 TRACKS = ("study", "4x", "over_4x")
 MIN_SEEDS = 5  # fewer seeds: provisional, not ranked
 DARWIN_FIELDS = [
@@ -382,7 +381,7 @@ def _budget_ratio(summary: dict) -> float:
     trials = summary.get("evaluations")
     if not _is_count(trials):
         return math.inf
-    return max(trials / STUDY_TRIALS, physics / (STUDY_TRIALS * card_stats.TRIAL_STEPS))
+    return max(trials / STUDY_TRIALS, physics / (STUDY_TRIALS * admission.TRIAL_STEPS))
 
 
 def _is_count(value) -> bool:

@@ -199,6 +199,10 @@ def missing_files(run_dir: str, trials: str = "trials.csv") -> list[str]:
 
 
 OUTCOME_FIELDS = ("tier", "seed", "distance_m", "fell", "fall_step", "cause")  # score.TRIAL_FIELDS
+# What the board reads of a trial's size (`card`'s, one definition; `analysis` imports
+# admission, not the card's statistics): control steps a trial, physics steps each.
+TRIAL_STEPS = card_stats.TRIAL_STEPS
+PHYSICS_STEPS_PER_CONTROL_STEP = card_stats.PHYSICS_STEPS_PER_CONTROL_STEP
 
 
 def read_trials(path: str) -> list[dict]:
