@@ -95,6 +95,7 @@ def test_update_card_restores_a_card_only_while_the_trials_hold(shipped, tmp_pat
     with open(copy / "trials.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     rows[-1]["fell"] = str(rows[-1]["fell"] != "True")
+    rows[-1]["cause"] = "fall" if rows[-1]["fell"] == "True" else ""  # the scorer's spelling
     runs.write_rows_csv(str(copy / "trials.csv"), rows)
     stored = (copy / "summary.json").read_text()
     with pytest.raises(ValueError, match="its trials changed"):
