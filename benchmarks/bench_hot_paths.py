@@ -3,8 +3,9 @@ r"""Every hot path's ratio to a raw `mujoco.rollout` of the same physics, in one
   python benchmarks/bench_hot_paths.py [--clock=cpu] [--repeats=3] [--steps=1000]
       [--paths=env,vector,evaluator,feedback,score] [--threads=1]
 
-For each path, in one process, ours and the raw rollout timed back to back (best of
-`--repeats` each), as physics steps per second:
+For each path, in one process, ours and the raw rollout timed in turn (ours, raw, ours,
+raw, ...; best of `--repeats` each, so a slow spell of a shared machine falls on both
+sides), as physics steps per second:
   * `env.step` of every DARwIn-OP tier (`darwin_walk`, `darwin_balance`,
     `darwin_walk_randomized`, `darwin_walk_push`, `darwin_walk_rough`,
     `darwin_walk_contact`), the hand-tuned gait for `--steps` control steps (`bench_env`'s
@@ -35,6 +36,7 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 
     cli.without_rendering()
 
+import contextlib
 import dataclasses
 import time
 
@@ -63,21 +65,25 @@ _ROBOTS, _VECTOR_SEED = 8, 100
 _FEEDBACK_K, _FEEDBACK_SEEDS, _FEEDBACK_TIER = 50, (0, 1), "darwin_walk_randomized"
 
 
-def _best(fn, repeats: int, now) -> float:
-    """Best-of-`repeats` seconds of `fn()` on the clock `now`."""
-    best = np.inf
+def _paired(ours, raw, repeats: int, now) -> tuple[float, float]:
+    """Best-of-`repeats` seconds of `ours()` and of `raw()` on the clock `now`, the two
+    timed in turn (ours, raw, ours, raw, ...) so that a slow spell of a shared machine falls
+    on both sides alike instead of on one side's block of timings."""
+    best = [np.inf, np.inf]
     for _ in range(repeats):
-        start = now()
-        fn()
-        best = min(best, now() - start)
-    return best
+        for side, fn in enumerate((ours, raw)):
+            start = now()
+            fn()
+            best[side] = min(best[side], now() - start)
+    return best[0], best[1]
 
 
-def _rollout(model, datas, states, controls, threads: int, repeats: int, now) -> float:
-    """Best-of-`repeats` seconds of one `mujoco.rollout` call (`threads` > 1: a pool)."""
+@contextlib.contextmanager
+def _rollout(model, datas, states, controls, threads: int):
+    """A call of one `mujoco.rollout` of `controls` from `states` (`threads` > 1: a pool)."""
     with rollout.Rollout(nthread=threads if threads > 1 else 0) as runner:
         data = datas if threads > 1 else datas[0]
-        return _best(lambda: runner.rollout(model, data, states, controls), repeats, now)
+        yield lambda: runner.rollout(model, data, states, controls)
 
 
 def env_step(task_id: str, steps: int, repeats: int, now) -> tuple[float, float]:
@@ -94,7 +100,6 @@ def env_step(task_id: str, steps: int, repeats: int, now) -> tuple[float, float]
             if env.step(a).last():
                 env.reset()  # (not with the gait: it walks the whole time)
 
-    ours = _best(run, repeats, now)
     # The controls the task set, from its initial state (`bench_env.time_raw`'s).
     env.reset()
     model = physics.model.ptr
@@ -107,7 +112,8 @@ def env_step(task_id: str, steps: int, repeats: int, now) -> tuple[float, float]
             env.reset()
         ctrls[t] = physics.data.ctrl
     controls = np.repeat(ctrls, n_sub, axis=0)[None]
-    raw = _rollout(model, [mujoco.MjData(model)], initial[None], controls, 1, repeats, now)
+    with _rollout(model, [mujoco.MjData(model)], initial[None], controls, 1) as raw_run:
+        ours, raw = _paired(run, raw_run, repeats, now)
     return steps * n_sub / ours, steps * n_sub / raw
 
 
@@ -132,7 +138,6 @@ def vector_env(steps: int, threads: int, repeats: int, now) -> tuple[float, floa
                 envs.step(a)
             counted.append(envs.physics_steps - before)
 
-        ours = _best(run, repeats, now)
         envs.reset(seed=_VECTOR_SEED)
         models = [e.physics.model.ptr for e in envs.envs]
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -142,7 +147,8 @@ def vector_env(steps: int, threads: int, repeats: int, now) -> tuple[float, floa
         controls = np.repeat(ctrls, envs.n_sub, axis=0)
         controls = np.broadcast_to(controls, (_ROBOTS,) + controls.shape).copy()
         datas = [mujoco.MjData(models[0]) for _ in range(threads)]
-        raw = _rollout(models, datas, states, controls, threads, repeats, now)
+        with _rollout(models, datas, states, controls, threads) as raw_run:
+            ours, raw = _paired(run, raw_run, repeats, now)
     finally:
         envs.close()
     return counted[-1] / ours, controls.shape[0] * controls.shape[1] / raw
@@ -166,11 +172,11 @@ def evaluator(steps: int, threads: int, repeats: int, now) -> tuple[float, float
         def run():
             counted.append(ev.evaluate(amplitudes, [0]).sim_steps)
 
-        ours = _best(run, repeats, now)
         controls = np.repeat(ev.controls(amplitudes), ev.n_sub, axis=1)
         initial = np.tile(ev.initial_state(0), (len(amplitudes), 1))
         datas = [mujoco.MjData(ev.model) for _ in range(threads)]
-        raw = _rollout(ev.model, datas, initial, controls, threads, repeats, now)
+        with _rollout(ev.model, datas, initial, controls, threads) as raw_run:
+            ours, raw = _paired(run, raw_run, repeats, now)
     return counted[-1] / ours, controls.shape[0] * controls.shape[1] / raw
 
 
@@ -191,7 +197,6 @@ def feedback_evaluator(steps: int, threads: int, repeats: int, now) -> tuple[flo
         def run():
             counted.append(ev.evaluate(params, _FEEDBACK_SEEDS).sim_steps)
 
-        ours = _best(run, repeats, now)
         step_trial, given = ev._step_trial, {}
 
         def recording(trial, ctrl, t):  # the controls each trial was given
@@ -200,17 +205,20 @@ def feedback_evaluator(steps: int, threads: int, repeats: int, now) -> tuple[flo
 
         ev._step_trial = recording
         ev.evaluate(params, _FEEDBACK_SEEDS)
+        ev._step_trial = step_trial
         episodes = [ev._open.episode(s) for s in _FEEDBACK_SEEDS]
-    trials = len(given)
-    controls = np.zeros((trials, steps * ev.n_sub, episodes[0].model.nu))
-    for k, (_, ctrls) in enumerate(given.values()):  # a fallen trial's last controls held
-        held = np.repeat(np.array(ctrls), ev.n_sub, axis=0)
-        controls[k] = np.concatenate([held, np.repeat(held[-1:], steps * ev.n_sub - len(held), 0)])
-    order = [episodes[k % len(episodes)] for k in range(trials)]  # trial = (candidate, seed)
-    models = [e.model for e in order]
-    initial = np.array([e.state for e in order])
-    datas = [mujoco.MjData(models[0]) for _ in range(threads)]
-    raw = _rollout(models, datas, initial, controls, threads, repeats, now)
+        trials = len(given)
+        controls = np.zeros((trials, steps * ev.n_sub, episodes[0].model.nu))
+        for k, (_, ctrls) in enumerate(given.values()):  # a fallen trial's last controls held
+            held = np.repeat(np.array(ctrls), ev.n_sub, axis=0)
+            rest = np.repeat(held[-1:], steps * ev.n_sub - len(held), 0)
+            controls[k] = np.concatenate([held, rest])
+        order = [episodes[k % len(episodes)] for k in range(trials)]  # (candidate, seed)
+        models = [e.model for e in order]
+        initial = np.array([e.state for e in order])
+        datas = [mujoco.MjData(models[0]) for _ in range(threads)]
+        with _rollout(models, datas, initial, controls, threads) as raw_run:
+            ours, raw = _paired(run, raw_run, repeats, now)
     return counted[-1] / ours, controls.shape[0] * controls.shape[1] / raw
 
 
@@ -229,19 +237,20 @@ def scoring(steps: int, threads: int, repeats: int, now) -> tuple[float, float]:
     def run():
         counted.append(score.score_gait(amplitudes, settings)["scoring_sim_steps"])
 
-    ours = _best(run, repeats, now)
-    raw, raw_steps = 0.0, 0
+    raw_runs, raw_steps = [], 0
     seeds = protocol.held_out_seeds(settings.seeds)
-    for tier in settings.tiers:
-        with BatchEvaluator(tier, steps, threads) as ev:
+    with contextlib.ExitStack() as stack:
+        for tier in settings.tiers:
+            ev = stack.enter_context(BatchEvaluator(tier, steps, threads))
             ctrl = ev.controls(amplitudes[None])[0].repeat(ev.n_sub, axis=0)
             episodes = [ev.episode(seed) for seed in seeds]
             models = [e.model for e in episodes]
             states = np.array([e.state for e in episodes])
             controls = np.tile(ctrl, (len(seeds), 1, 1))
             datas = [mujoco.MjData(models[0]) for _ in range(threads)]
-            raw += _rollout(models, datas, states, controls, threads, repeats, now)
+            raw_runs.append(stack.enter_context(_rollout(models, datas, states, controls, threads)))
             raw_steps += len(seeds) * len(ctrl)
+        ours, raw = _paired(run, lambda: [r() for r in raw_runs], repeats, now)
     return counted[-1] / ours, raw_steps / raw
 
 
@@ -253,7 +262,7 @@ def ratios(
     clock: str = "cpu",
     tiers=DARWIN_TIERS,
 ):
-    """Yields `(path, ours, raw)` in physics steps per second, each pair measured back to back.
+    """Yields `(path, ours, raw)` in physics steps per second, each pair timed in turn.
 
     Args:
       paths: Which of `PATHS`.

@@ -1,8 +1,10 @@
 """The hot paths' shortcuts give the same bits as the definitions they stand for, and
 (slow) every hot path keeps its ratio to a raw `mujoco.rollout` (issue 55).
 
-The ratio test measures with the process's CPU time, best of 3, ours and the rollout back
-to back, so it holds on a loaded machine; it asserts a ratio, never a time.
+The ratio test measures with the process's CPU time, ours and the rollout timed in turn,
+best of 5 each, a path below its floor measured again before it fails, so it holds on a
+loaded machine; it asserts a ratio, never a time. What it measured is printed at the end of
+the run with the CPU's name (`conftest.py`), so every CI run adds a reading of its CPU.
 """
 
 from __future__ import annotations
@@ -120,13 +122,27 @@ def _floor(name: str, floor: float) -> float:
     return next((low for known, (low, _) in _KNOWN_LOW.items() if name.startswith(known)), floor)
 
 
+def _below_floor(bench, paths, repeats: int, readings: list, tiers=None) -> dict[str, float]:
+    """Each measured path below its floor → its ratio; every reading appended to `readings`."""
+    kwargs = {} if tiers is None else {"tiers": tiers}
+    low = {}
+    for name, ours, raw in bench.ratios(paths, steps=1000, repeats=repeats, threads=1, **kwargs):
+        readings.append((name, ours / raw, repeats))
+        if ours / raw < _floor(name, bench.FLOOR):
+            low[name] = ours / raw
+    return low
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("path", ["env", "vector", "evaluator", "feedback", "score"])
-def test_every_hot_path_keeps_three_quarters_of_raw_rollout(path):
+def test_every_hot_path_keeps_three_quarters_of_raw_rollout(path, hot_path_readings):
+    """Ours and the rollout timed in turn, best of 5 each; a path below its floor is timed
+    again, best of 9, and fails only if it is below again: a slow spell of a shared machine
+    does not fail it, a regression does (it is below in both)."""
     bench = _bench()
-    low = []
-    for name, ours, raw in bench.ratios((path,), steps=1000, repeats=3, threads=1):
-        ratio = ours / raw
-        if ratio < _floor(name, bench.FLOOR):
-            low.append(f"{name}: {ratio:.3f}x raw")
-    assert not low, f"below {bench.FLOOR}x raw mujoco.rollout: {'; '.join(low)}"
+    low = _below_floor(bench, (path,), 5, hot_path_readings)
+    if low:
+        tiers = [name.removeprefix("env.step ") for name in low] if path == "env" else None
+        low = _below_floor(bench, (path,), 9, hot_path_readings, tiers)
+    shown = "; ".join(f"{name}: {ratio:.3f}x raw" for name, ratio in low.items())
+    assert not low, f"below {bench.FLOOR}x raw mujoco.rollout twice: {shown}"
