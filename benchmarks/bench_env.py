@@ -69,11 +69,12 @@ def time_env(env, actions, repeats: int) -> float:
     return len(actions) / best
 
 
-def time_raw(env, actions, repeats: int) -> float:
+def time_raw(env, actions, repeats: int, now=time.perf_counter) -> float:
     """Best-of-`repeats` physics steps per second of a single-thread `mujoco.rollout`.
 
     The controls are those the task set for `actions` (recorded once), each repeated for
     the substeps of its control step; the rollout starts from the task's initial state.
+    `now` is the clock (seconds), the wall clock unless given.
     """
     physics = env.physics
     n_sub = int(round(env.control_timestep() / physics.model.opt.timestep))
@@ -91,9 +92,9 @@ def time_raw(env, actions, repeats: int) -> float:
     data = mujoco.MjData(model)
     best = np.inf
     for _ in range(repeats):
-        start = time.perf_counter()
+        start = now()
         rollout.rollout(model, data, initial[None], controls)
-        best = min(best, time.perf_counter() - start)
+        best = min(best, now() - start)
     return controls.shape[1] / best
 
 

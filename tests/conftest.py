@@ -1,6 +1,7 @@
 """Shared pytest hooks: the hot-path ratios a run measured, printed at its end with the CPU.
 
-The slow hot-path test (`test_hot_paths.py`) appends `(path, ratio, repeats)` to the
+The slow hot-path test (`test_hot_paths.py`) appends `(path, ratio, repeats)` (and, for
+`env.step`, `(name, [(part, µs), ...], repeats)`: where a control step's time goes) to the
 `hot_path_readings` fixture; the terminal summary lists them under the CPU's model name and
 whether it has AVX-512, so each CI run records the ratios on whatever machine it ran on
 (issue 55 asks for them on AVX2 and AVX-512 CPUs).
@@ -41,5 +42,10 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     if not readings:
         return
     terminalreporter.write_sep("-", f"hot paths / raw mujoco.rollout on {_cpu()}")
-    for name, ratio, repeats in readings:
-        terminalreporter.write_line(f"{name:48s} {ratio:6.3f}x  (best of {repeats})")
+    for name, value, repeats in readings:
+        if isinstance(value, list):  # a profile: (part, µs) rows
+            terminalreporter.write_line(f"{name}:")
+            for part, micros in value:
+                terminalreporter.write_line(f"  {part.strip():62s} {micros:7.1f}")
+        else:
+            terminalreporter.write_line(f"{name:48s} {value:6.3f}x  (best of {repeats})")

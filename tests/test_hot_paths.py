@@ -94,8 +94,9 @@ def test_the_tasks_shortcuts_equal_the_accessors():
     assert physics.data.ctrl.tobytes() == before.tobytes()
 
 
-def _bench():
-    spec = importlib.util.spec_from_file_location("bench_hot_paths", _BENCH)
+def _bench(name: str = "bench_hot_paths"):
+    path = os.path.join(os.path.dirname(_BENCH), f"{name}.py")
+    spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # its dataclass looks its module up
     spec.loader.exec_module(module)
@@ -144,5 +145,10 @@ def test_every_hot_path_keeps_three_quarters_of_raw_rollout(path, hot_path_readi
     if low:
         tiers = [name.removeprefix("env.step ") for name in low] if path == "env" else None
         low = _below_floor(bench, (path,), 9, hot_path_readings, tiers)
+    if path == "env":  # where a control step's time goes on this CPU, for the summary
+        profiler = _bench("bench_step_profile")
+        for task_id in ("darwin_walk", "darwin_balance"):
+            rows = profiler.profile(task_id, 1000, 3, "cpu")
+            hot_path_readings.append((f"profile of {task_id} (µs a control step)", rows, 3))
     shown = "; ".join(f"{name}: {ratio:.3f}x raw" for name, ratio in low.items())
     assert not low, f"below {bench.FLOOR}x raw mujoco.rollout twice: {shown}"
