@@ -94,6 +94,19 @@ def test_the_tasks_shortcuts_equal_the_accessors():
     assert physics.data.ctrl.tobytes() == before.tobytes()
 
 
+def test_set_leg_action_equals_action_to_targets_for_every_kind_of_action():
+    """The folded halving in `set_leg_action` gives `action_to_targets`' bits for actions
+    spread over [−1, 1], its ends, signed zeros and the values next to them."""
+    physics = _walked(steps=1).physics
+    rng = np.random.default_rng(11)
+    edges = np.array([-1.0, 1.0, 0.0, -0.0, np.nextafter(-1.0, 0), np.nextafter(1.0, 0), 5e-324])
+    actions = np.concatenate([rng.uniform(-1.0, 1.0, (4000, 12)), rng.choice(edges, (500, 12))])
+    for action in actions:
+        physics.set_leg_action(action)
+        expected = physics.action_to_targets(action)
+        assert physics.data.ctrl[physics._leg_act].tobytes() == expected.tobytes()
+
+
 def _bench(name: str = "bench_hot_paths"):
     path = os.path.join(os.path.dirname(_BENCH), f"{name}.py")
     spec = importlib.util.spec_from_file_location(name, path)

@@ -63,6 +63,9 @@ class Physics(mujoco.Physics):
         self._leg_range = model.jnt_range[legs]
         self._leg_low = self._leg_range[:, 0].copy()  # `action_to_targets`' constants
         self._leg_span = self._leg_range[:, 1] - self._leg_range[:, 0]
+        # Half the span, for `set_leg_action`: ((a + 1)·½)·span = (a + 1)·(½·span) bit for
+        # bit, as both halvings are exact and each side then rounds one exact product.
+        self._leg_half_span = self._leg_span * _HALF
         self._torso_push = state.xfrc_applied[self._torso, :3]  # a view: `tasks`' pushes
         self._weight = float(model.body_subtreemass[self._torso] * -model.opt.gravity[2])
         self._recording = recording.Recording(self)  # what `step` records
@@ -164,11 +167,10 @@ class Physics(mujoco.Physics):
 
     def set_leg_action(self, action: np.ndarray) -> None:
         """`set_leg_targets(action_to_targets(action))` for a float64 (12,) action in
-        [−1, 1]: the same operations in the same order (the same bits), written into
-        `data.ctrl` without temporaries (the tasks' hot path)."""
+        [−1, 1]: the same bits (the halving folded into the span: both are exact), written
+        into `data.ctrl` without temporaries (the tasks' hot path)."""
         t = np.add(action, _ONE, out=self._action_scratch)
-        np.multiply(t, _HALF, out=t)
-        np.multiply(t, self._leg_span, out=t)
+        np.multiply(t, self._leg_half_span, out=t)  # ((a + 1)·½)·span, one rounding
         np.add(self._leg_low, t, out=self._leg_ctrl)
 
     def controls_for(self, leg_targets: np.ndarray) -> np.ndarray:
