@@ -923,10 +923,10 @@ def sample_history(run_dir: str, how: dict, name: str) -> list[str]:
         keys = [(t["tier"], t["seed"]) for t in stored]
         chosen = sample.draw(keys, how["sample"], how["entropy"], f"{name}/v{version}")
         settings = card_settings(config, None, how["threads"], kept)
-        policy = shipped_policy(run_dir, how["trust_code"], how["trusted"])
-        artifact = gait_params(run_dir, settings.controller) if policy is None else policy
-        with policy_threads(run_dir):
-            fresh = score.seed_trials(artifact, settings, chosen)
+        fresh = seed_trials(
+            run_dir, lambda tiers, chosen=chosen: chosen, trust_code=how["trust_code"],
+            trusted=how["trusted"], settings=settings,
+        )  # fmt: skip
         differ = sample.compare(fresh, stored)
         problems += [line.replace("trials.csv", table) for line in differ]
     return problems
@@ -938,14 +938,28 @@ def seed_trials(
     threads: int = 2,
     trust_code: bool = False,
     trusted: frozenset[str] | None = None,
+    settings: score.ScoreSettings | None = None,
 ) -> list[dict]:
     """A shipped run's gait or policy scored on seeds of its own choosing
     (`score.seed_trials`): `choose` maps the run's tiers to {tier: [seed, ...]}.
 
+    Args:
+      run_dir: A shipped run.
+      choose: Its tiers → {tier: [seed, ...]}.
+      threads: Threads of the scoring (unused when `settings` is given).
+      trust_code: Whether a policy that is code may be loaded (with `trusted`).
+      trusted: The digests of code policies trusted to run.
+      settings: The scorer's settings (None: the run's test card's, `run_settings`; a
+        history card's, `card_settings`, for `sample_history`).
+
+    Returns:
+      The fresh trial rows.
+
     Raises:
       UntrustedCode: If its policy is code not trusted (nothing of it is loaded).
     """
-    settings = run_settings(run_dir, threads=threads)
+    if settings is None:
+        settings = run_settings(run_dir, threads=threads)
     policy = shipped_policy(run_dir, trust_code, trusted)
     artifact = gait_params(run_dir, settings.controller) if policy is None else policy
     with policy_threads(run_dir):
