@@ -142,6 +142,40 @@ def test_the_summary_counts_fails_apart_from_not_reproduced():
     assert first["NAC-5"].startswith("fails") and first["CR-5a"].startswith("fails")
 
 
+def test_the_summary_says_which_way_each_revision_moved_its_verdict():
+    """Every claim with a first verdict is listed once, under the direction its revision
+    moved the verdict: fails and not reproduced here < inconclusive and mixed < holds, and
+    into or out of "not testable here" apart; the report carries the line."""
+    import csv
+
+    from analysis.study import report as study_report
+
+    def row(claim_id, verdict, first):
+        return {"id": claim_id, "verdict": verdict, "first_verdict": first}
+
+    claims = [
+        row("A", "holds", "fails: x"),
+        row("B", "inconclusive", "holds: y"),
+        row("C", "not reproduced here", "fails"),
+        row("D", "not testable here", "holds: z"),
+        row("E", "mixed", "not reproduced here: w"),
+        row("F", "fails", ""),
+    ]
+    line = study_report.revisions_line(claims)
+    assert line.startswith("5 criteria were revised")
+    assert "2 moved the verdict towards holds (A, E)" in line
+    assert "1 moved it away from holds (B)" in line
+    assert "1 left it where it was (C)" in line
+    assert "1 moved it into or out of not testable here (D)" in line and "F" not in line
+    with open(os.path.join(TRACKED, "claims.csv"), encoding="utf-8") as f:
+        tracked = list(csv.DictReader(f))
+    with open(os.path.join(TRACKED, "report.md"), encoding="utf-8") as f:
+        assert study_report.revisions_line(tracked) in f.read()
+    revised = [c["id"] for c in tracked if c["first_verdict"]]
+    assert all(line.count(f"{i},") + line.count(f"{i})") == 1 for i in revised for line in
+               [study_report.revisions_line(tracked)])  # fmt: skip
+
+
 def test_every_untested_claim_says_what_it_needs(rows):
     from analysis.study.readings import NEEDS
 

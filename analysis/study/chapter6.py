@@ -803,14 +803,22 @@ def cem_22(ev: Evidence) -> v.Verdict:
     return above(ev, "K10_n0_e2", "K10_n0.8_e1", best, "D(K10_n0_e2) − D(K10_n0.8_e1)")
 
 
-@rule("CEM-23")
-def cem_23(ev: Evidence) -> v.Verdict:
-    parts = [
+def cem_23_ahead(ev: Evidence) -> list[v.Verdict]:
+    """Elite 3 ahead of elites 1 and 4, in both noise settings (CEM-23 as first written)."""
+    return [
         above(ev, settings[2], settings[o], best, f"D({settings[2]}) − D({settings[o]})")
         for settings in (NO_NOISE, NOISE)
         for o in (0, 3)
     ]
-    return v.joined(parts)
+
+
+@rule("CEM-23")
+def cem_23(ev: Evidence) -> v.Verdict:
+    behind = [
+        above(ev, settings[1], settings[2], best, f"D({settings[1]}) − D({settings[2]})")
+        for settings in (NO_NOISE, NOISE)
+    ]  # behind elite 2 (added after the fourth reading of 2026-11-28)
+    return v.joined(behind + cem_23_ahead(ev))
 
 
 def _list(x, fmt: str = ".3f") -> str:

@@ -12,6 +12,7 @@ from collections import Counter
 import numpy as np
 
 from analysis.study import chapter6
+from analysis.study import verdicts as v
 from analysis.study.evidence import Evidence, MissingEvidence
 from analysis.study.verdicts import counts, leaves, tally
 
@@ -173,6 +174,47 @@ def _compute_lines(ev: Evidence) -> list[str]:
     ]
 
 
+# How far a verdict goes the claim's way, to say which way a revision moved it.
+_TOWARD = {v.FAILS: 0, v.NOT_REPRODUCED: 0, v.INCONCLUSIVE: 1, v.MIXED: 1, v.HOLDS: 2}
+
+
+def revisions_line(claims: list[dict]) -> str:
+    """One paragraph: the criteria revised after their runs, by which way the revision moved
+    the verdict (towards the claim, against it, not at all, or out of what is testable).
+
+    Args:
+      claims: claims.csv's rows.
+
+    Returns:
+      The paragraph (ids listed under each direction).
+    """
+    moved: dict[str, list[str]] = {"towards": [], "against": [], "unchanged": [], "out": []}
+    for c in claims:
+        if not c.get("first_verdict"):
+            continue
+        now, was = c["verdict"], c["first_verdict"].split(":")[0].strip()
+        if now == v.UNTESTABLE or was == v.UNTESTABLE:
+            key = "unchanged" if now == was else "out"
+        elif _TOWARD[now] == _TOWARD[was]:
+            key = "unchanged"
+        else:
+            key = "towards" if _TOWARD[now] > _TOWARD[was] else "against"
+        moved[key].append(c["id"])
+    names = {
+        "towards": "moved the verdict towards holds",
+        "against": "moved it away from holds",
+        "unchanged": "left it where it was",
+        "out": "moved it into or out of not testable here",
+    }
+    parts = [f"{len(ids)} {names[k]} ({', '.join(ids)})" for k, ids in moved.items() if ids]
+    total = sum(len(ids) for ids in moved.values())
+    return (
+        f"{total} criteria were revised after their runs (each marked in its criterion, "
+        f"with the text it replaced): {'; '.join(parts)} (in the order fails and not "
+        "reproduced here, then inconclusive and mixed, then holds)."
+    )
+
+
 def write(out: str, claims: list[dict], table: list[dict], ev: Evidence) -> str:
     """Writes `report.md` and the figure into `out`; returns the report's path.
 
@@ -201,6 +243,8 @@ def write(out: str, claims: list[dict], table: list[dict], ev: Evidence) -> str:
         "its rule gives on those runs; its evidence shows what the rule gave. Where a "
         "criterion was revised after its runs, the verdict it gave as first written stands "
         "beside the verdict.",
+        "",
+        revisions_line(claims),
         "",
         f"![CEM cost per round]({figure})",
         "",

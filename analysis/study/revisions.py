@@ -289,7 +289,8 @@ def cem_14a(ev: Evidence) -> v.Verdict:
 # CPG-8 is split into its three features (CPG-8a to 8c), each judged by the rule first
 # written for all three. CPG-1a's statement says what its rule tests; CR-1a's and CR-3's
 # evidence follows the measure they registered (Alg. 4.1 from V = 0 per seed, where they
-# read the converged policy); their criteria are unchanged.
+# read the converged policy); their criteria are unchanged. CEM-23 tests the statement's
+# "behind elite 2" too (its criterion had left it out).
 
 
 @first("CPG-8")
@@ -299,6 +300,12 @@ def cpg_8(ev: Evidence) -> v.Verdict:
     found = v.joined([chapter5.raised_part(ev, p) for p in chapter5.RAISED])
     verdict = v.NOT_REPRODUCED if found.verdict == v.FAILS else found.verdict
     return v.Verdict(verdict, found.evidence)
+
+
+@first("CEM-23")
+def cem_23(ev: Evidence) -> v.Verdict:
+    """Was: elite 3 ahead of elites 1 and 4 only; the statement's "behind elite 2" untested."""
+    return v.joined(chapter6.cem_23_ahead(ev))
 
 
 # --- revised after the first second reading, commit 5e854fa (runs replaced) ---------------
