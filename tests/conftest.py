@@ -9,24 +9,23 @@ whether it has AVX-512, so each CI run records the ratios on whatever machine it
 
 from __future__ import annotations
 
+import cpu_variants
 import pytest
 
 _READINGS = pytest.StashKey[list]()
 
 
 def _cpu() -> str:
-    """The CPU's model name and its widest vector extension, from /proc/cpuinfo."""
-    name, flags = "unknown CPU", set()
+    """The CPU's model name and its widest vector extension, from /proc/cpuinfo (its flags
+    as `cpu_variants` reads them)."""
+    name = "unknown CPU"
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                key, _, value = line.partition(":")
-                if key.strip() == "model name" and name == "unknown CPU":
-                    name = value.strip()
-                elif key.strip() == "flags" and not flags:
-                    flags = set(value.split())
+            name = next((v.strip() for k, _, v in map(lambda line: line.partition(":"), f)
+                         if k.strip() == "model name"), name)  # fmt: skip
     except OSError:
         pass
+    flags = cpu_variants.cpu_flags()
     widest = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "no AVX2"
     return f"{name} ({widest})"
 

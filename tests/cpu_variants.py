@@ -16,7 +16,8 @@ import sys
 _CONTROLLED = ("NPY_DISABLE_CPU_FEATURES", "ATEN_CPU_CAPABILITY")
 
 
-def _cpu_flags() -> set[str]:
+def cpu_flags() -> set[str]:
+    """This CPU's feature flags, from /proc/cpuinfo (empty where it cannot be read)."""
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
             for line in f:
@@ -52,7 +53,7 @@ def variants(
         out["torch at its default capability"] = {"ATEN_CPU_CAPABILITY": "default"}
         out["torch at AVX2"] = {"ATEN_CPU_CAPABILITY": "avx2"}
     for kernel in blas_kernels:
-        if kernel != "SkylakeX" or "avx512f" in _cpu_flags():
+        if kernel != "SkylakeX" or "avx512f" in cpu_flags():
             out[f"OpenBLAS {kernel}"] = {"OPENBLAS_CORETYPE": kernel}
     return out
 
