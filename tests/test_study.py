@@ -142,10 +142,11 @@ def test_the_summary_counts_fails_apart_from_not_reproduced():
     assert first["NAC-5"].startswith("fails") and first["CR-5a"].startswith("fails")
 
 
-def test_the_summary_says_which_way_each_revision_moved_its_verdict():
+def test_the_summary_says_which_way_each_revision_moved_its_verdict(rows):
     """Every claim with a first verdict is listed once, under the direction its revision
-    moved the verdict: fails and not reproduced here < inconclusive and mixed < holds, and
-    into or out of "not testable here" apart; the report carries the line."""
+    moved the verdict: fails and not reproduced here < inconclusive and mixed < holds, a move
+    within one of those apart, and into or out of "not testable here" apart; the catalog's
+    other marked revisions are counted beside; the report carries the paragraph."""
     import csv
 
     from analysis.study import report as study_report
@@ -160,20 +161,59 @@ def test_the_summary_says_which_way_each_revision_moved_its_verdict():
         row("D", "not testable here", "holds: z"),
         row("E", "mixed", "not reproduced here: w"),
         row("F", "fails", ""),
+        row("G", "inconclusive", "inconclusive: as recorded"),
+        row("H", "not testable here", "not testable here"),
     ]
     line = study_report.revisions_line(claims)
-    assert line.startswith("5 criteria were revised")
+    assert line.startswith("7 claims are judged by a rule revised after their runs")
     assert "2 moved the verdict towards holds (A, E)" in line
     assert "1 moved it away from holds (B)" in line
-    assert "1 left it where it was (C)" in line
+    assert "1 moved it between fails and not reproduced here" in line and "(C)" in line
+    assert "2 left it as it was (G, H)" in line
     assert "1 moved it into or out of not testable here (D)" in line and "F" not in line
+    catalog_rows = [
+        {"id": "A", "criterion": "x (revised after the first reading: was y)"},
+        {"id": "F", "criterion": "x", "measure": "m (revised after the run: was n)"},
+        {
+            "id": "P",
+            "criterion": "parts (revised after it: was z, which verdicts.combine did not apply)",
+        },  # fmt: skip
+        {"id": "Q", "criterion": "never revised", "setting": "s"},
+    ]
+    both = study_report.revisions_line(claims, catalog_rows)
+    assert both.startswith(line) and "Another 2 revisions marked" in both
+    assert "1 compound claims whose combination rule was restated" in both
+    assert "1 criteria whose first rule is not computed here (F)" in both
     with open(os.path.join(TRACKED, "claims.csv"), encoding="utf-8") as f:
         tracked = list(csv.DictReader(f))
+    paragraph = study_report.revisions_line(tracked, rows)
     with open(os.path.join(TRACKED, "report.md"), encoding="utf-8") as f:
-        assert study_report.revisions_line(tracked) in f.read()
+        assert paragraph in f.read()
     revised = [c["id"] for c in tracked if c["first_verdict"]]
-    assert all(line.count(f"{i},") + line.count(f"{i})") == 1 for i in revised for line in
-               [study_report.revisions_line(tracked)])  # fmt: skip
+    assert all(paragraph.count(f"{i},") + paragraph.count(f"{i})") == 1 for i in revised)
+
+
+def test_every_first_verdict_has_its_revision_marked_in_the_catalog(rows):
+    """A claim judged beside a first verdict marks in its criterion, measure or setting
+    when the rule was revised and what it replaced ("revised after ...: was ..." or "...
+    from ..."), so a reader
+    of the catalog sees every revision the report counts."""
+    import csv
+    import re
+
+    from analysis.study import report as study_report
+
+    with open(os.path.join(TRACKED, "claims.csv"), encoding="utf-8") as f:
+        first = {c["id"] for c in csv.DictReader(f) if c["first_verdict"]}
+    by_id = {r["id"]: r for r in rows}
+    unmarked = sorted(i for i in first if not study_report.marked_revised(by_id[i]))
+    assert not unmarked, f"first verdicts without a revision marked: {unmarked}"
+    mark = re.compile(r"(revised|changed) after .{0,400}?\b(was|from)\b")
+    fields = ("criterion", "measure", "setting")
+    without_was = sorted(
+        i for i in first if not any(mark.search(by_id[i].get(k, "")) for k in fields)
+    )
+    assert not without_was, f"revisions marked without what they replaced: {without_was}"
 
 
 def test_every_untested_claim_says_what_it_needs(rows):

@@ -163,7 +163,7 @@ def build(out: str = OUT, ev: Evidence | None = None) -> str:
     table = numbers.table(ev, rows)
     write_csv(os.path.join(out, "claims.csv"), claims, CLAIM_FIELDS)
     write_csv(os.path.join(out, "numbers.csv"), table, numbers.FIELDS)
-    report.write(out, claims, table, ev)
+    report.write(out, claims, table, ev, rows)
     whole, judged = counts(claims), leaves(claims)
     return (
         f"{sum(whole.values())} claims ({tally(whole)}); "

@@ -178,45 +178,90 @@ def _compute_lines(ev: Evidence) -> list[str]:
 _TOWARD = {v.FAILS: 0, v.NOT_REPRODUCED: 0, v.INCONCLUSIVE: 1, v.MIXED: 1, v.HOLDS: 2}
 
 
-def revisions_line(claims: list[dict]) -> str:
-    """One paragraph: the criteria revised after their runs, by which way the revision moved
-    the verdict (towards the claim, against it, not at all, or out of what is testable).
+# Where the catalog marks a revision made after the runs ("revised after ...: was ..."), and
+# the mark of a compound claim's combination rule restated to what `verdicts.combine` does.
+REVISED = "revised after"
+_MARKED_FIELDS = ("criterion", "measure", "setting")
+_COMBINATION_RESTATED = "which verdicts.combine did not apply"
+
+
+def marked_revised(row: dict) -> bool:
+    """Whether a catalog row marks a revision of its rule (criterion, measure or setting)
+    made after its runs."""
+    return any(REVISED in row.get(k, "") for k in _MARKED_FIELDS)
+
+
+def revisions_line(claims: list[dict], rows: list[dict] | None = None) -> str:
+    """One paragraph: the claims judged by a rule revised after their runs, by which way the
+    revision moved the verdict (towards the claim, against it, between verdicts of the same
+    side, not at all, or into or out of what is testable); with the catalog's rows, also the
+    revisions marked there that have no first verdict beside.
 
     Args:
       claims: claims.csv's rows.
+      rows: The catalog's rows (`catalog.load`), or None to leave the second part out.
 
     Returns:
       The paragraph (ids listed under each direction).
     """
-    moved: dict[str, list[str]] = {"towards": [], "against": [], "unchanged": [], "out": []}
+    moved: dict[str, list[str]] = {k: [] for k in ("towards", "against", "side", "same", "out")}
     for c in claims:
         if not c.get("first_verdict"):
             continue
         now, was = c["verdict"], c["first_verdict"].split(":")[0].strip()
-        if now == v.UNTESTABLE or was == v.UNTESTABLE:
-            key = "unchanged" if now == was else "out"
+        if now == was:
+            key = "same"
+        elif v.UNTESTABLE in (now, was):
+            key = "out"
         elif _TOWARD[now] == _TOWARD[was]:
-            key = "unchanged"
+            key = "side"
         else:
             key = "towards" if _TOWARD[now] > _TOWARD[was] else "against"
         moved[key].append(c["id"])
     names = {
         "towards": "moved the verdict towards holds",
         "against": "moved it away from holds",
-        "unchanged": "left it where it was",
+        "side": "moved it between fails and not reproduced here, or between inconclusive and mixed",
+        "same": "left it as it was",
         "out": "moved it into or out of not testable here",
     }
     parts = [f"{len(ids)} {names[k]} ({', '.join(ids)})" for k, ids in moved.items() if ids]
     total = sum(len(ids) for ids in moved.values())
+    line = (
+        f"{total} claims are judged by a rule revised after their runs, the first rule's "
+        "verdict beside (each revision marked in the catalog, in the claim's criterion, "
+        f"measure or setting, with what it replaced): {'; '.join(parts)} (in the order fails "
+        "and not reproduced here, then inconclusive and mixed, then holds)."
+    )
+    return line if rows is None else f"{line} {_unpaired_revisions(claims, rows)}"
+
+
+def _unpaired_revisions(claims: list[dict], rows: list[dict]) -> str:
+    """The sentence on the catalog's marked revisions that have no first verdict beside."""
+    paired = {c["id"] for c in claims if c.get("first_verdict")}
+    unpaired = [r for r in rows if marked_revised(r) and r["id"] not in paired]
+    restated = [r["id"] for r in unpaired if _COMBINATION_RESTATED in r["criterion"]]
+    other = [r["id"] for r in unpaired if r["id"] not in restated]
     return (
-        f"{total} criteria were revised after their runs (each marked in its criterion, "
-        f"with the text it replaced): {'; '.join(parts)} (in the order fails and not "
-        "reproduced here, then inconclusive and mixed, then holds)."
+        f"Another {len(unpaired)} revisions marked in the catalog have no first verdict "
+        f"beside: {len(restated)} compound claims whose combination rule was restated to what "
+        "the code does (`verdicts.combine`; their verdict under the first wording is the "
+        f"same, else it would stand beside), and {len(other)} criteria whose first rule is "
+        f"not computed here ({', '.join(other)})."
     )
 
 
-def write(out: str, claims: list[dict], table: list[dict], ev: Evidence) -> str:
+def write(
+    out: str, claims: list[dict], table: list[dict], ev: Evidence, rows: list[dict] | None = None
+) -> str:
     """Writes `report.md` and the figure into `out`; returns the report's path.
+
+    Args:
+      out: The folder.
+      claims: The judged claims (`build.judge`).
+      table: The numbers' table (`numbers.table`).
+      ev: The evidence.
+      rows: The catalog's rows (for the revisions' summary; None: that part left out).
 
     Raises:
       MissingExtra: Without matplotlib (nothing is written).
@@ -244,7 +289,7 @@ def write(out: str, claims: list[dict], table: list[dict], ev: Evidence) -> str:
         "criterion was revised after its runs, the verdict it gave as first written stands "
         "beside the verdict.",
         "",
-        revisions_line(claims),
+        revisions_line(claims, rows),
         "",
         f"![CEM cost per round]({figure})",
         "",
