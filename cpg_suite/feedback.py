@@ -96,7 +96,7 @@ def sensor_inputs(orientation, gyro, touch) -> np.ndarray:
     zz = 1.0 - 2.0 * (x * x + y * y)
     g = np.asarray(gyro, dtype=np.float64)
     load = np.asarray(touch, dtype=np.float64) / BODY_WEIGHT_N
-    pitch, roll = portable.arctan2(zx, zz), portable.arctan2(zy, zz)
+    pitch, roll = portable.arctan2(np.stack([zx, zy]), zz)  # one call: element-wise alike
     return np.stack([pitch, roll, g[..., 1], -g[..., 0], load[..., 0], load[..., 1]], axis=-1)
 
 

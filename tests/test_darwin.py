@@ -267,6 +267,30 @@ def test_centre_of_pressure_matches_mj_contact_force():
     assert checked > 300  # both single and double support were seen
 
 
+def test_balance_reward_is_its_definition_over_cop_offsets_bit_for_bit():
+    """The reward's one-pass hot path equals its definition: −(mean of `cop_offsets`'
+    distances over the stance feet), 0 without one, bit for bit, over states with both,
+    either and neither foot in stance (the gait, then random targets that topple it)."""
+    env = cpg_suite.load("darwin_balance", task_kwargs={"random": 4})
+    physics, rng = env.physics, np.random.default_rng(4)
+    pattern, seen = cpg.CPG("hand_tuned"), set()
+    for episode in range(3):
+        env.reset()
+        for _ in range(250):
+            gait = physics.targets_to_action(pattern.step(0.016))
+            action = gait if episode == 0 else rng.uniform(-1, 1, 12) * 0.3 * episode
+            reward = env.step(action).reward
+            distance, stance = darwin_contacts.cop_offsets(physics)
+            offsets = [d for d, s in zip(distance, stance) if s]
+            expected = -sum(offsets) / len(offsets) if offsets else 0.0
+            assert np.float64(reward).tobytes() == np.float64(expected).tobytes()
+            assert darwin_contacts.balance_reward(physics) == reward  # the same state again
+            seen.add(tuple(bool(s) for s in stance))
+            if env.physics.fallen():
+                break
+    assert {(True, True), (True, False), (False, True)} <= seen
+
+
 def test_reading_the_foot_loads_leaves_the_trajectory_alone():
     """Solving the contact forces for the balance reward changes no later state."""
 

@@ -101,6 +101,33 @@ def test_sensor_inputs_read_forward_and_left_lean_as_positive():
     assert left[1] == pytest.approx(0.2) and left[3] == pytest.approx(0.3)
 
 
+def test_sensor_inputs_take_each_tilt_as_its_own_arctan2_bit_for_bit():
+    """Pitch and roll come from one `portable.arctan2` call over both (the hot path's);
+    each equals its own call's bits, for one robot and many, upright, tilted, on either
+    side of ±π/2 and with signed zeros."""
+    from cpg_suite import portable
+
+    rng = np.random.default_rng(5)
+    q = rng.standard_normal((64, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    q[:6] = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, -0.0, 1], [-1, 0, 0, -0.0],
+             [0.5, 0.5, -0.5, 0.5]]  # fmt: skip
+    gyro, touch = rng.standard_normal((64, 3)), rng.uniform(0, 30, (64, 2))
+    for n in (1, 64):
+        w, x, y, z = (q[:n, i] for i in range(4))
+        zz = 1.0 - 2.0 * (x * x + y * y)
+        want = [portable.arctan2(2.0 * (x * z + w * y), zz),
+                portable.arctan2(2.0 * (y * z - w * x), zz)]  # fmt: skip
+        got = feedback.sensor_inputs(q[:n], gyro[:n], touch[:n])
+        for column, expected in enumerate(want):
+            assert got[:, column].tobytes() == expected.tobytes()
+    one = feedback.sensor_inputs(q[5], gyro[5], touch[5])
+    assert (
+        one.shape == (6,)
+        and one.tobytes() == feedback.sensor_inputs(q[5:6], gyro[5:6], touch[5:6])[0].tobytes()
+    )
+
+
 def test_phase_feedback_holds_back_a_loaded_leg_late_in_stance():
     params = np.concatenate([cpg.amplitudes_from("hand_tuned"), np.zeros(feedback.N_GAINS)])
     params[cpg.N_AMPLITUDES + feedback.GAIN_NAMES.index("phase")] = 2.0

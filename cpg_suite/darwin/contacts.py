@@ -40,15 +40,21 @@ def foot_loads(physics: mujoco.Physics) -> tuple[list[float], list[list[float]]]
       `(force, weighted)`: the (left, right) normal forces, N, and their force-weighted
       sums of contact positions, N·m, as Python lists.
     """
+    f0, f1, w0, w1 = _loads(physics)
+    return [f0, f1], [w0, w1]
+
+
+def _loads(physics: mujoco.Physics) -> tuple[float, float, list[float], list[float]]:
+    """`foot_loads` as the left and right forces and weighted sums (the reward's hot path:
+    no lists of lists to build and unpack)."""
     model, data = physics._pointers
     mj.mj_forwardSkip(model, data, _VELOCITY_STAGE, 1)
-    force = [0.0, 0.0]
-    weighted = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    f0 = f1 = x0 = y0 = z0 = x1 = y1 = z1 = 0.0
     if data.ncon:
         contacts = data.contact
         efc = data.efc_force.tolist()
         floor, feet = physics._floor, physics._foot_index
-        for (g0, g1), adr, pos in zip(
+        for (g0, g1), adr, (px, py, pz) in zip(
             contacts.geom.tolist(), contacts.efc_address.tolist(), contacts.pos.tolist()
         ):
             foot = feet.get(g1) if g0 == floor else feet.get(g0) if g1 == floor else None
@@ -56,12 +62,13 @@ def foot_loads(physics: mujoco.Physics) -> tuple[list[float], list[list[float]]]
                 continue
             normal = efc[adr] + efc[adr + 1] + efc[adr + 2] + efc[adr + 3]
             if normal > 0.0:
-                force[foot] += normal
-                w = weighted[foot]
-                w[0] += normal * pos[0]
-                w[1] += normal * pos[1]
-                w[2] += normal * pos[2]
-    return force, weighted
+                if foot:
+                    f1 += normal
+                    x1, y1, z1 = x1 + normal * px, y1 + normal * py, z1 + normal * pz
+                else:
+                    f0 += normal
+                    x0, y0, z0 = x0 + normal * px, y0 + normal * py, z0 + normal * pz
+    return f0, f1, [x0, y0, z0], [x1, y1, z1]
 
 
 def centres_of_pressure(physics: mujoco.Physics) -> tuple[np.ndarray, np.ndarray]:
@@ -96,23 +103,21 @@ def cop_offsets(physics: mujoco.Physics) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _cop_offsets(physics: mujoco.Physics) -> tuple[list[float], list[bool]]:
-    """`cop_offsets` as Python lists (the balance reward's hot path)."""
-    force, weighted = foot_loads(physics)
+    """`cop_offsets` as Python lists."""
+    f0, f1, w0, w1 = _loads(physics)
     soles = physics._sole_xpos[physics._sole_rows].tolist()
     threshold = STANCE_FRACTION * physics._weight
     distance, stance = [math.nan, math.nan], [False, False]
-    for foot in (0, 1):
-        f = force[foot]
+    for foot, (f, w) in enumerate(((f0, w0), (f1, w1))):
         if f > 0.0:
-            distance[foot] = math.hypot(
-                weighted[foot][0] / f - soles[foot][0], weighted[foot][1] / f - soles[foot][1]
-            )
+            distance[foot] = math.hypot(w[0] / f - soles[foot][0], w[1] / f - soles[foot][1])
             stance[foot] = f > threshold
     return distance, stance
 
 
 def balance_reward(physics: mujoco.Physics) -> float:
-    """The balance task's reward.
+    """The balance task's reward (`cop_offsets`' distances of the stance feet, in one pass:
+    the tasks' hot path; the same operations, tests/test_darwin.py).
 
     Args:
       physics: A `darwin.Physics`.
@@ -120,6 +125,14 @@ def balance_reward(physics: mujoco.Physics) -> float:
     Returns:
       −(mean over stance feet of the COP distance to the sole centre), m; 0 without.
     """
-    distance, stance = _cop_offsets(physics)
-    offsets = [d for d, s in zip(distance, stance) if s]
-    return -sum(offsets) / len(offsets) if offsets else 0.0
+    f0, f1, (x0, y0, _), (x1, y1, _) = _loads(physics)
+    threshold = STANCE_FRACTION * physics._weight
+    if not (f0 > threshold or f1 > threshold):
+        return 0.0
+    (s0x, s0y, _), (s1x, s1y, _) = physics._sole_xpos[physics._sole_rows].tolist()
+    total, n = 0, 0  # `sum` of the stance feet's distances, left first
+    if f0 > threshold:
+        total, n = total + math.hypot(x0 / f0 - s0x, y0 / f0 - s0y), 1
+    if f1 > threshold:
+        total, n = total + math.hypot(x1 / f1 - s1x, y1 / f1 - s1y), n + 1
+    return -total / n

@@ -38,7 +38,11 @@ _FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS
 # The inputs a rollout leaves as they are (controls, applied forces, mocap, equalities):
 # given none, it neither sets nor clears them, so the trial's stay in its data.
 _INPUTS = int(mujoco.mjtState.mjSTATE_USER)
-_INVALID = np.array(_INVALID_STATE_WARNINGS)  # the warnings `invalid_state` reads
+# The warnings `invalid_state` reads: a slice where their numbers run on (basic indexing:
+# cheaper than an index array on every trial's control step), else the numbers.
+_INVALID: slice | np.ndarray = np.array(sorted(_INVALID_STATE_WARNINGS))
+if np.array_equal(_INVALID, np.arange(_INVALID[0], _INVALID[0] + len(_INVALID))):
+    _INVALID = slice(int(_INVALID[0]), int(_INVALID[-1]) + 1)
 
 
 class FeedbackPolicy:
@@ -115,6 +119,7 @@ class _Trial:
         self.ctrl, self.push = data.ctrl, data.xfrc_applied[layout.torso, :3]  # views
         self.root_qpos = data.qpos[root : root + 7]  # a view
         self.warnings = data.warning.number  # a view: the counts a rollout clears
+        self.sensordata = data.sensordata  # a view: the observation's sensors (`_inputs`)
         self.damping = model.dof_damping[layout.servo_dofs]  # the episode's, fixed
         if states is None:
             states = np.zeros((layout.n_sub, mujoco.mj_stateSize(model, _FULLPHYSICS)))
@@ -271,7 +276,7 @@ class FeedbackEvaluator:
 
     def _inputs(self, trials: list[_Trial]) -> np.ndarray:
         """(K·S, 6) feedback inputs from every trial's sensors (a fallen trial's are unused)."""
-        sensors, s = np.array([t.data.sensordata for t in trials]), self._sensors
+        sensors, s = np.array([t.sensordata for t in trials]), self._sensors
         return feedback.sensor_inputs(
             sensors[:, s["torso_orientation"]], sensors[:, s["gyro"]], sensors[:, s["foot_touch"]]
         )
