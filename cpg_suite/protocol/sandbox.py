@@ -47,12 +47,14 @@ import importlib.util
 import json
 import os
 import resource
+import select
 import signal
 import struct
 import subprocess
 import sys
 import tempfile
 import threading
+import time
 from collections.abc import Callable
 
 import numpy as np
@@ -69,6 +71,14 @@ _ENVIRONMENT = (
     "MKL_CBWR",
 )
 _THREADS = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+# How long the scorer waits for the policy's process, s (choices: generous for honest code,
+# so that a policy that sleeps or loops cannot hold `verify`, `submit` or CI for ever).
+# Start-up: Python, NumPy and `cpg_suite` load, then the file and its `make_policy()` (an
+# import of torch and a small network took under 10 s on the 2-core development machine).
+STARTUP_SECONDS = 120.0
+# Any other answer: a trial's start (a fork) or the actions for one control step, of one
+# trial or a tier's 50 at once (a batched MLP's forward pass: milliseconds).
+ANSWER_SECONDS = 30.0
 _ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 _BOOT = (
     "import sys; sys.path.insert(0, {root!r}); "
@@ -80,9 +90,12 @@ class PolicyFailed(RuntimeError):
     """The policy's process ended or answered with something other than an action."""
 
 
-def _read_exactly(fd: int, n: int) -> bytes:
+def _read_exactly(fd: int, n: int, deadline: float | None = None) -> bytes:
+    """n bytes from fd; by `deadline` (`time.monotonic`; None: no limit), else TimeoutError."""
     chunks, left = [], n
     while left:
+        if deadline is not None and not select.select([fd], [], [], _left(deadline))[0]:
+            raise TimeoutError
         chunk = os.read(fd, left)
         if not chunk:
             raise EOFError("the other end closed")
@@ -97,9 +110,13 @@ def _send(fd: int, kind: bytes, payload: bytes = b"") -> None:
         data = data[os.write(fd, data) :]
 
 
-def _receive(fd: int) -> tuple[bytes, bytes]:
-    kind, length = _HEADER.unpack(_read_exactly(fd, _HEADER.size))
-    return kind, _read_exactly(fd, length)
+def _left(deadline: float) -> float:
+    return max(0.0, deadline - time.monotonic())
+
+
+def _receive(fd: int, deadline: float | None = None) -> tuple[bytes, bytes]:
+    kind, length = _HEADER.unpack(_read_exactly(fd, _HEADER.size, deadline))
+    return kind, _read_exactly(fd, length, deadline)
 
 
 _HEADERS: dict = {}  # the JSON header of each layout of arrays sent (a cache)
@@ -149,14 +166,27 @@ class IsolatedPolicy:
     `act_batch(observations)`, so does this (`score.batched_policy_trials`).
 
     Args:
-      path: The policy's Python file.
+      path: The policy's Python file (relative to the working folder, or absolute).
+      startup_seconds: How long its process may take to run the file and `make_policy()`.
+      answer_seconds: How long it may take for any later answer (a trial's start, the
+        actions of a control step).
 
     Raises:
-      PolicyFailed: If the file cannot be run or its `make_policy()` fails (with the
-        last line the child printed on stderr).
+      PolicyFailed: If the file is not a readable regular file, cannot be run, its
+        `make_policy()` fails (with the last line the child printed on stderr), or it does
+        not answer in time.
     """
 
-    def __init__(self, path: str):
+    def __init__(
+        self,
+        path: str,
+        startup_seconds: float = STARTUP_SECONDS,
+        answer_seconds: float = ANSWER_SECONDS,
+    ):
+        path = os.path.abspath(path)  # the child runs in a folder of its own
+        if not os.path.isfile(path) or not os.access(path, os.R_OK):
+            raise PolicyFailed(f"the policy's file {path!r} is not a readable file")
+        self._answer_seconds = answer_seconds
         keep_memory_private()
         self._folder = tempfile.TemporaryDirectory(prefix="policy-")
         environment = {k: os.environ[k] for k in _ENVIRONMENT if k in os.environ}
@@ -174,14 +204,19 @@ class IsolatedPolicy:
         self._drain.start()
         self._to, self._from = self._process.stdin.fileno(), self._process.stdout.fileno()
         self._in_trial = False
-        kind, payload = self._answer()
+        kind, payload = self._answer(startup_seconds, "to start")
         self.batched = payload == b"batch"
         if self.batched:
             self.reset_batch, self.act_batch = self._reset_batch, self._act_batch
 
-    def _answer(self) -> tuple[bytes, bytes]:
+    def _answer(self, seconds: float | None = None, what: str = "to answer") -> tuple[bytes, bytes]:
+        seconds = self._answer_seconds if seconds is None else seconds
         try:
-            kind, payload = _receive(self._from)
+            kind, payload = _receive(self._from, time.monotonic() + seconds)
+        except TimeoutError:
+            self.close()
+            late = f"the policy's process took more than {seconds:g} s {what}"
+            raise PolicyFailed(late) from None
         except (EOFError, OSError):
             kind, payload = _FAIL, b""
         if kind != _OK:

@@ -39,7 +39,7 @@ import shutil
 from absl import flags
 
 from cpg_suite import cli, cpg, protocol
-from cpg_suite.protocol import admission, score, verify
+from cpg_suite.protocol import admission, sandbox, score, verify
 from cpg_suite.runfiles import exported, runs
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
@@ -386,10 +386,10 @@ def main(argv: list[str]) -> None:
             run_dir = submit_actions(exported.ActionTable.load(path), submission)
         else:
             run_dir = submit_code(path, submission)
-    except (ValueError, KeyError, OSError) as e:
+    except (ValueError, KeyError, OSError, sandbox.PolicyFailed) as e:
         if "allow_pickle" in str(e):  # NumPy's advice to unpickle: not ours to give
             e = "it holds pickled (object) arrays; submit reads plain arrays only, never a pickle"
-        raise cli.UsageError(f"--{kind}={path}: {e}") from None
+        raise cli.UsageError(verify.one_line(f"--{kind}={path}: {e}")) from None
     card = runs.read_json(os.path.join(run_dir, "summary.json"))["test"]
     print(score.format_card(card))
     print(f"wrote {run_dir}")

@@ -80,6 +80,7 @@ from absl import flags
 from cpg_suite import cli, cpg, evaluation, feedback, progress, protocol
 from cpg_suite.protocol import admission, audit, sample, sandbox, score
 from cpg_suite.protocol import card as card_stats
+from cpg_suite.protocol.files import refusal as file_problem
 from cpg_suite.runfiles import exported, runs
 
 ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
@@ -100,6 +101,15 @@ QUICK_SEEDS = 5  # test seeds per tier in a quick verification
 TRUSTED_LIST = admission.TRUSTED_LIST
 TRUSTED_NAME = "cpg_suite/data/trusted_pickles.txt"  # how messages name it
 _CHECKOUT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def one_line(text: str) -> str:
+    """`text` as verify prints it: control and other unprintable characters (a newline in
+    a folder's name or a policy's message) escaped, so that nothing read from a run or said
+    by a policy can start a line of verify's report of its own."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def repository() -> str:
@@ -390,6 +400,10 @@ def ship(run_dir: str, dest: str, threads: int = 2, trust_code: bool = False) ->
       ValueError: If the run has no test card, or the fresh card differs from it.
       UntrustedCode: If its policy is code not trusted (nothing is loaded or written).
     """
+    copied = [os.path.join(run_dir, name) for name in _copied(run_dir)]
+    reason = admission.file_refusal(run_dir) or next(filter(None, map(file_problem, copied)), None)
+    if reason:
+        raise ValueError(f"{run_dir}: {reason}")
     summary = runs.read_json(os.path.join(run_dir, "summary.json"))
     if "test" not in summary:
         raise ValueError(f"{run_dir} has no test score card")
@@ -399,8 +413,8 @@ def ship(run_dir: str, dest: str, threads: int = 2, trust_code: bool = False) ->
         raise ValueError(f"{run_dir}: scored again, its card differs from the run's")
     config = runs.read_json(os.path.join(run_dir, "config.json"))
     os.makedirs(dest, exist_ok=True)
-    for name in _copied(run_dir):
-        shutil.copyfile(os.path.join(run_dir, name), os.path.join(dest, name))
+    for path in copied:
+        shutil.copyfile(path, os.path.join(dest, os.path.basename(path)))
     _write_summary(os.path.join(dest, "summary.json"), {**summary, "test": fresh})
     runs.write_json(os.path.join(dest, "config.json"), _relocated(config))
     write_trials(os.path.join(dest, "trials.csv"), trials)
@@ -467,26 +481,36 @@ def ship_all(
     """
     shipped = 0
     for run_dir in run_folders(root):
-        missing = unshippable(run_dir)
-        if missing:
-            log(f"not shippable {run_dir}: missing {', '.join(missing)}")
-            continue
-        summary = runs.read_json(os.path.join(run_dir, "summary.json"))
-        if "test" not in summary:
-            log(f"skipped {run_dir}: no test score card")
-            continue
         dest = os.path.join(artifacts, os.path.relpath(run_dir, root))
-        if os.path.exists(os.path.join(dest, "trials.csv")):
-            continue  # shipped before (`verify` checks it)
-        reason = code_refusal(run_dir, trust_code)
-        if reason:
-            log(f"not shipped {run_dir}: {reason}")
-            continue
-        ship(run_dir, dest, trust_code=trust_code)
-        reason = admission.run_refusal(dest)
-        log(f"shipped {dest}" + (f"; the board will not admit it: {reason}" if reason else ""))
-        shipped += 1
+        try:
+            line = _ship_one(run_dir, dest, trust_code)
+        except (OSError, ValueError) as e:  # this run's files or card: the others go on
+            line = f"not shipped {run_dir}: {e}"
+        if line:
+            log(one_line(line))
+            shipped += line.startswith("shipped ")
     return shipped
+
+
+def _ship_one(run_dir: str, dest: str, trust_code: bool) -> str | None:
+    """`ship_all`'s work on one run: its line (None: shipped before, nothing to say)."""
+    reason = admission.file_refusal(run_dir)  # links, devices, oversized files: not read
+    if reason:
+        return f"not shipped {run_dir}: {reason}"
+    missing = unshippable(run_dir)
+    if missing:
+        return f"not shippable {run_dir}: missing {', '.join(missing)}"
+    summary = runs.read_json(os.path.join(run_dir, "summary.json"))
+    if "test" not in summary:
+        return f"skipped {run_dir}: no test score card"
+    if os.path.exists(os.path.join(dest, "trials.csv")):
+        return None  # shipped before (`verify` checks it)
+    reason = code_refusal(run_dir, trust_code)
+    if reason:
+        return f"not shipped {run_dir}: {reason}"
+    ship(run_dir, dest, trust_code=trust_code)
+    reason = admission.run_refusal(dest)
+    return f"shipped {dest}" + (f"; the board will not admit it: {reason}" if reason else "")
 
 
 def fresh_scoring(
@@ -972,17 +996,12 @@ def _check_run(run_dir: str, how: dict) -> tuple[list[str], str | None]:
     before and compared after: a run whose files changed meanwhile, as a policy that is
     code could change them, is not reproduced)."""
     before = admission.run_digest(run_dir)
-    if not how["sample"]:
-        problems = verify_run(
-            run_dir, how["quick"], how["threads"], how["trust_code"], how["trusted"]
-        )
-    else:
-        keys = [(t["tier"], t["seed"]) for t in read_trials(os.path.join(run_dir, "trials.csv"))]
-        name = "/".join(os.path.normpath(os.path.abspath(run_dir)).split(os.sep)[-3:])
-        chosen = sample.draw(keys, how["sample"], how["entropy"], name)
-        problems = sample_run(run_dir, chosen, how["threads"], how["trust_code"], how["trusted"])
-        problems += sample_history(run_dir, how, name)
-        problems += in_sample_problems(run_dir, how["threads"])
+    try:
+        problems = _checked(run_dir, how)
+    except (UntrustedCode, NotAdmitted):
+        raise
+    except Exception as e:  # the run's own failure (its policy, its files): this run only
+        problems = [f"could not be scored: {type(e).__name__}: {e}"]
     try:
         after = admission.run_digest(run_dir)
     except (OSError, ValueError):
@@ -990,6 +1009,18 @@ def _check_run(run_dir: str, how: dict) -> tuple[list[str], str | None]:
     if after != before:
         problems = [*problems, "its files changed while it was being checked"]
     return problems, before
+
+
+def _checked(run_dir: str, how: dict) -> list[str]:
+    """`_check_run`'s scoring: the differences found (empty: none)."""
+    if not how["sample"]:
+        return verify_run(run_dir, how["quick"], how["threads"], how["trust_code"], how["trusted"])
+    keys = [(t["tier"], t["seed"]) for t in read_trials(os.path.join(run_dir, "trials.csv"))]
+    name = "/".join(os.path.normpath(os.path.abspath(run_dir)).split(os.sep)[-3:])
+    chosen = sample.draw(keys, how["sample"], how["entropy"], name)
+    problems = sample_run(run_dir, chosen, how["threads"], how["trust_code"], how["trusted"])
+    problems += sample_history(run_dir, how, name)
+    return problems + in_sample_problems(run_dir, how["threads"])
 
 
 def audit_run(run_dir: str, seeds: list[int], how: dict) -> tuple[dict, dict]:
@@ -1040,7 +1071,8 @@ def audit_runs(
     folders = run_folders(artifacts)
     if not folders:
         raise ValueError(f"no shipped runs under {artifacts}")
-    refused = admission.refusals(folders, ledger=admission.ledger_beside(artifacts))
+    ledger = admission.ledger_beside(artifacts)
+    refused = admission.refusals(folders, ledger=ledger)
     trusted = trusted_digests(trusted_list)
     chosen = [
         d for d in folders if d not in refused and code_refusal(d, trust_code, trusted) is None
@@ -1287,7 +1319,8 @@ def verify(
     folders = run_folders(artifacts)
     if not folders:
         raise ValueError(f"no shipped runs under {artifacts}")
-    refused = admission.refusals(folders, ledger=admission.ledger_beside(artifacts))
+    ledger = admission.ledger_beside(artifacts)
+    refused = admission.refusals(folders, ledger=ledger)
     trusted = trusted_digests(trusted_list)
     for run_dir in folders:
         reason = None if run_dir in refused else code_refusal(run_dir, trust_code, trusted)
@@ -1306,7 +1339,7 @@ def verify(
         "sample": sample_trials,
         "entropy": entropy,
     }
-    failed = len(refused)
+    failed, on_record = len(refused), 0
     with contextlib.ExitStack() as stack:
         if jobs > 1:
             pool = stack.enter_context(_pool(jobs, chosen, trust_code))
@@ -1321,17 +1354,46 @@ def verify(
             outcome = lambda run_dir: _check_run(run_dir, how)  # noqa: E731
         for run_dir in sorted([*chosen, *refused]):
             if run_dir in refused:
-                log(f"REFUSED {run_dir}; {refused[run_dir]}")
+                log(one_line(f"REFUSED {run_dir}; {refused[run_dir]}"))
                 continue
             problems, digest = outcome(run_dir)
+            if quick and not sample_trials:
+                full = _full_check_problems(run_dir, digest, ledger)
+                on_record += full is None
+                problems = problems + (full or [])
             if record and jobs <= 1:  # as each run is done: a stop keeps what it checked
                 write_ledger(record, {run_dir: problems}, sample_trials, digests={run_dir: digest})
             failed += bool(problems)
-            log(f"{'DIFF' if problems else 'ok  '} {run_dir}" + "".join(f"; {p}" for p in problems))
+            status = "DIFF" if problems else "ok  "
+            log(one_line(f"{status} {run_dir}" + "".join(f"; {p}" for p in problems)))
     total = len(chosen) + len(refused)
+    if quick and not sample_trials:
+        log(
+            f"{total - failed} of {total} shipped runs reproduced bit for bit on --quick's "
+            f"trials (the first {QUICK_SEEDS} test seeds a tier), {on_record} of them on "
+            "record as re-scored in full"
+        )
+        return failed
     what = f", {sample_trials} random trials each," if sample_trials else ""
     log(f"{total - failed} of {total} shipped runs{what} reproduced bit for bit")
     return failed
+
+
+def _full_check_problems(run_dir: str, digest: str | None, ledger: dict) -> list[str] | None:
+    """What a quick check adds about a run from the ledger beside its tree: nothing (None)
+    where the ledger's full check re-scored these very files (`admission.rescored_in_full`);
+    a difference where its row for the run re-scored other files (the quick trials cannot
+    vouch for the rest of an edited run); [] where no full check of the run is on record
+    (a run not yet re-scored in full: the final line counts it apart)."""
+    if admission.rescored_in_full(run_dir, ledger):
+        return None
+    row = ledger.get(admission.run_key(run_dir))
+    if row and row["check"] == "full" and row["files_sha256"] != digest:
+        return [
+            f"its files are not those the ledger's full check re-scored ({row['date_utc']}): "
+            f"--quick re-scores {QUICK_SEEDS} test seeds a tier and cannot vouch for the rest"
+        ]
+    return []
 
 
 def _record_as_done(record: str, futures: dict, sample_trials: int) -> None:
