@@ -16,7 +16,10 @@ Reads every `<DIR>/**/<method>/<task>/<run_name>/summary.json` (run files only) 
   and `darwin_not_admitted.csv`: every other DARwIn-OP run with a one-line reason; the
   same pair `_v<n>` for each earlier benchmark version whose cards the runs keep.
 
-Missing or malformed run files are skipped and listed on stderr, never a crash. The
+Missing or malformed run files are skipped and listed on stderr, never a crash. A folder
+under the tree that is a symbolic link is not followed: it is listed as not admitted
+(`admission.LINK_REFUSAL`). A name from disk is printed escaped where it is not printable
+text (`admission.shown_name`: a newline in a folder's name forges no line). The
 study's claims are judged in one place, `python -m analysis.study` (results/study).
 """
 
@@ -31,7 +34,6 @@ import csv
 import dataclasses
 import math
 import os
-import re
 import sys
 from collections import defaultdict
 from collections.abc import Iterator
@@ -44,7 +46,7 @@ from cpg_suite import cli, protocol
 from cpg_suite.protocol import admission, aggregate, files
 from cpg_suite.protocol.stats import mean_std_ci95
 
-_SEED = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
+_SEED = admission.SEED_NAME  # `<config>_seed<S>`, S in ASCII digits (one definition)
 # (method, task) -> [(metric key in summary.json, unit, higher is better)].
 METRICS = {
     "darwin_walk": [("best_distance_m", "m", True), ("final_mean_distance_m", "m", True)],
@@ -88,7 +90,7 @@ def _add_score_card(dirpath: str, found: list[dict], skipped: list[str]) -> None
         if not isinstance(card, dict) or not isinstance(card.get("tiers"), dict):
             raise ValueError("not a score card")
     except (OSError, ValueError) as e:
-        skipped.append(f"{path}: {type(e).__name__}")
+        skipped.append(f"{admission.shown_name(path)}: {type(e).__name__}")
         return
     summary = {"test": card, "evaluations": 0, "sim_steps": 0, "best_distance_m": None}
     name = os.path.basename(os.path.normpath(dirpath))
@@ -116,10 +118,24 @@ def walk_sorted(root: str) -> Iterator[tuple[str, list[str]]]:
 
 def find_runs(root: str) -> tuple[list[dict], list[str]]:
     """Every readable run, in path order: method, task, config, seed, summary; and the
-    skipped paths."""
+    skipped paths (escaped, `admission.shown_name`). A folder that is a symbolic link is
+    not followed: it is found as a run that is not admitted (`_add_link`), whatever it
+    points at.
+
+    Args:
+      root: The run tree.
+
+    Returns:
+      `(found, skipped)`: one dict per run or part of one; one line per file skipped.
+    """
     found, skipped = [], []
     ledger = admission.read_ledger(ledger_path(root))
-    for dirpath, filenames in walk_sorted(root):
+    for dirpath, dirnames, filenames in os.walk(root):
+        dirnames.sort()  # name order, as `walk_sorted`
+        filenames = sorted(filenames)
+        for name in dirnames:  # os.walk lists a link to a folder here, and never enters it
+            if os.path.islink(os.path.join(dirpath, name)):
+                _add_link(os.path.join(dirpath, name), root, found)
         if "summary.json" not in filenames:
             if "score.json" in filenames:
                 _add_score_card(dirpath, found, skipped)
@@ -129,7 +145,7 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
         path = os.path.join(dirpath, "summary.json")
         parts = os.path.normpath(dirpath).split(os.sep)
         if len(parts) < 3:
-            skipped.append(f"{path}: not <method>/<task>/<run>")
+            skipped.append(f"{admission.shown_name(path)}: not <method>/<task>/<run>")
             continue
         method, task, run_name = parts[-3], parts[-2], parts[-1]
         if admission.file_refusal(dirpath):  # nothing of it is read: the board says why
@@ -140,7 +156,7 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
             if not isinstance(summary, dict):
                 raise ValueError("not an object")
         except (OSError, ValueError) as e:
-            skipped.append(f"{path}: {type(e).__name__}")
+            skipped.append(f"{admission.shown_name(path)}: {type(e).__name__}")
             _add_incomplete(dirpath, found)  # the board lists it, with why (admission)
             continue
         config_path = os.path.join(dirpath, "config.json")
@@ -188,6 +204,36 @@ def _add_incomplete(dirpath: str, found: list[dict]) -> None:
             "dir": dirpath,
             "trained_version": None,
             "incomplete": True,
+        }
+    )
+
+
+def _add_link(path: str, root: str, found: list[dict]) -> None:
+    """A folder under the tree that is a symbolic link (a run's, a method's, any): found as
+    a run that is not admitted (`admission.path_refusal` says why), named by its place
+    under `root` (its method, task and name as far as its depth tells); nothing through
+    it is read.
+
+    Args:
+      path: The link.
+      root: The run tree.
+      found: The runs found (`find_runs`), appended to.
+    """
+    rel = os.path.normpath(os.path.relpath(path, root)).split(os.sep)
+    # One level down: a method's folder; two: a task's; deeper: the last three.
+    method, task, run_name = rel[-3:] if len(rel) >= 3 else [*rel, "", ""][:3]
+    match = _SEED.match(run_name)
+    found.append(
+        {
+            "method": method,
+            "task": task,
+            "config": (match["config"] or "default") if match else run_name,
+            "seed": int(match["seed"]) if match else None,
+            "summary": {},
+            "dir": path,
+            "trained_version": None,
+            "incomplete": True,
+            "linked": True,
         }
     )
 
@@ -249,10 +295,10 @@ def leaderboard_rows(found: list[dict]) -> list[dict]:
             mean, std, low, high = _stats(values)
             pub, source = _published(task, method, config, metric)
             rows.append(
-                {
+                {  # names from disk, escaped where not printable
                     "task": task,
-                    "method": method,
-                    "config": config,
+                    "method": admission.shown_name(method),
+                    "config": admission.shown_name(config),
                     "metric": metric,
                     "unit": unit,
                     "n": len(values),
@@ -532,9 +578,14 @@ PRESET_REFUSAL = "a score card alone (score.json): no run that verify can score 
 
 
 def is_darwin_run(run: dict) -> bool:
-    """Whether a run found by `find_runs` belongs on the DARwIn-OP board: a walking run or
-    a preset's score card."""
-    return run["task"].startswith("darwin_walk") or run["method"] == PRESET_METHOD
+    """Whether a run found by `find_runs` belongs on the DARwIn-OP board: a walking run, a
+    preset's score card, or a folder that is a symbolic link (its task unknown: what it
+    holds is not read, and the board lists it as not admitted rather than drop it)."""
+    return (
+        run["task"].startswith("darwin_walk")
+        or run["method"] == PRESET_METHOD
+        or bool(run.get("linked"))  # what it holds is not read: listed, never dropped
+    )
 
 
 def admit(
@@ -560,31 +611,36 @@ def admit(
         ledger = next((run["board_ledger"] for run in found if "board_ledger" in run), None)
     darwin = [run for run in found if is_darwin_run(run)]
     reasons = admission.refusals(
-        [run["dir"] for run in darwin if run["method"] != PRESET_METHOD], board, ledger
+        [run["dir"] for run in darwin if not _score_card(run)], board, ledger
     )
     admitted, refused = [], []
-    dirs = [os.path.abspath(run["dir"]) for run in darwin if run["method"] != PRESET_METHOD]
+    dirs = [os.path.abspath(run["dir"]) for run in darwin if not _score_card(run)]
     base = os.path.commonpath(dirs) if dirs else ""
     for run in darwin:
-        reason = PRESET_REFUSAL if run["method"] == PRESET_METHOD else reasons.get(run["dir"])
+        reason = PRESET_REFUSAL if _score_card(run) else reasons.get(run["dir"])
         if reason is None:
             admitted.append(_checked(run))
             continue
         parts = os.path.normpath(run["dir"]).split(os.sep)
         refused.append(
-            {
+            {  # names from disk, escaped where not printable
                 "benchmark_version": board,
-                "training_task": run["task"],
-                "method": run["method"],
-                "config": run["config"],
+                "training_task": admission.shown_name(run["task"]),
+                "method": admission.shown_name(run["method"]),
+                "config": admission.shown_name(run["config"]),
                 "seed": "" if run["seed"] is None else run["seed"],
-                "run": parts[-1]
-                if run["method"] == PRESET_METHOD
+                "run": admission.shown_name(parts[-1])
+                if _score_card(run)
                 else admission.shown(run["dir"], base).replace(os.sep, "/"),
                 "reason": reason,
             }
         )
     return admitted, refused
+
+
+def _score_card(run: dict) -> bool:
+    """Whether a run found is a preset's score card (`_add_score_card`), not a run folder."""
+    return run["method"] == PRESET_METHOD and not run.get("linked")
 
 
 def _checked(run: dict) -> dict:

@@ -372,7 +372,7 @@ FORGERIES = {
     ),
     "policy_unpacks_huge": (  # 128 MiB of zeros in a 130 kB .npz, beside the gait it outranks
         lambda run: np.savez_compressed(run / "selected_policy.npz", w=np.zeros(2**24)),
-        "unreadable gait or policy (ValueError: selected_policy.npz unpacks to",
+        "selected_policy.npz unpacks to",  # the policy's own check (`policy_refusal`)
     ),
     # A third outside attack (2026-11-28): nesting past Python's recursion limit, a number
     # past a float's range, a seed left out of the config (two folders of one seed).

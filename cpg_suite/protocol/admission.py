@@ -2,6 +2,10 @@
 
 A DARwIn-OP run is ranked or listed on the board of a benchmark version only if
 
+* its folder is a folder of its own (not a symbolic link), and its name, its method's and
+  task's, and every file's name in it are printable text (no newline or other control
+  character, which could forge a line of the board's listing; `path_refusal`); a name
+  that ends in `seed` and digits ends in ASCII digits (`SEED_NAME`);
 * every file of it that the board or verify reads is a plain file of its own, of bounded
   size, strict JSON and CSV (`cpg_suite.protocol.files`);
 * its folder holds what `cpg_suite.protocol.verify` needs to score it again: `config.json`
@@ -23,16 +27,21 @@ A DARwIn-OP run is ranked or listed on the board of a benchmark version only if
   score alike (`protocol.scored_alike`);
 * what it says of its training holds together (`training_refusal`): its task, its budget;
 * an action table (`selected_actions.npy`) has one row of 12 float64 actions per control
-  step of a trial (its `.npy` header says so; the array is not read);
+  step of a trial, each finite and in [-1, 1] (`actions_refusal`); an exported policy's
+  arrays (`selected_policy.npz`) are plain numbers or text, finite (`policy_refusal`);
+  either is read only after each `.npy` header is checked against the bytes that follow
+  it (`exported.read_npy`), so a header that claims more than the file holds is refused
+  before anything is allocated;
 * it is no copy: no earlier run of any configuration or method has the same trial outcomes
   or the same gait or policy, as values (`cpg_suite.protocol.copies`), and no other run of
   its configuration has its seed.
 
 Everything else is refused with a one-line reason (`refusals`). Nothing here executes code
-from a run folder: JSON and CSV are parsed, the `.npy` header is parsed as data, the gait
-or policy files are only hashed. A run whose policy is code (`CODE_FILES`: a Python file,
-or Stable-Baselines3's pickles) is admitted on its files like any other; whether its code
-may run is `verify`'s question (`--trust_code`, `verify.code_refusal`).
+from a run folder: JSON and CSV are parsed, NumPy arrays are read as data (headers first,
+never unpickled), the other gait or policy files are only hashed. A run whose policy is
+code (`CODE_FILES`: a Python file, or Stable-Baselines3's pickles) is admitted on its
+files like any other; whether its code may run is `verify`'s question (`--trust_code`,
+`verify.code_refusal`).
 """
 
 from __future__ import annotations
@@ -51,6 +60,7 @@ import numpy as np
 from cpg_suite import cpg, electrical, feedback, protocol
 from cpg_suite.protocol import card as card_stats
 from cpg_suite.protocol import copies, files, sample
+from cpg_suite.runfiles import exported
 
 BOARD_VERSION = protocol.BENCHMARK_VERSION  # the version the leaderboard ranks by default
 GAIT = "selected_params.json"
@@ -97,8 +107,96 @@ BOARD_MEASURES = (
     "heel_strike_share",
 )
 IN_SAMPLE = copies.IN_SAMPLE  # a gait run's in-sample best: its gait and training record
-# A run folder's name: `<config>_seed<S>` (the configuration's name less its seed).
-SEED_NAME = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>\d+)$")
+# A run folder's name: `<config>_seed<S>` (the configuration's name less its seed), the
+# seed in ASCII digits only (`\d` would read `seed٠` or `seed１` as seeds 0 and 1).
+SEED_NAME = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>[0-9]+)$")
+# A name that ends in `seed` and digits of any script: refused unless `SEED_NAME` reads it.
+_ANY_DIGIT_SEED = re.compile(r"seed\d+$")
+
+
+def shown_name(name: str) -> str:
+    """A name from disk (a folder, a file, a path) as the board prints it: as it is if all
+    its characters are printable, else its `repr` (escaped: a newline in a name cannot
+    start a line of the board's listing).
+
+    Args:
+      name: The name.
+
+    Returns:
+      The name, or its escaped form.
+    """
+    return name if name.isprintable() else repr(name)
+
+
+def name_refusal(name: str, what: str = "its folder") -> str | None:
+    """Why a folder's or file's name may not be on the board (None: it may): a character
+    that is not printable (a newline, a tab, another control or format character, which
+    could forge or hide a line of the board's listing), or a seed number in digits other
+    than ASCII's.
+
+    Args:
+      name: The name (one path component).
+      what: What it names, for the reason ("its folder", "its method's folder", ...).
+
+    Returns:
+      A one-line reason showing the name escaped, or None.
+    """
+    if not name.isprintable():
+        return (
+            f"{what}'s name {name!r} holds a control or other non-printable character: a "
+            "name on the board is printable text"
+        )
+    if _ANY_DIGIT_SEED.search(name) and not SEED_NAME.match(name):
+        return (
+            f"{what}'s name {name!r} ends in a seed number that is not in ASCII digits: a "
+            "run's name ends in seed<0-9...>"
+        )
+    return None
+
+
+LINK_REFUSAL = "a symbolic link, not a folder of its own: the board reads no run through a link"
+
+
+def path_refusal(run_dir: str, base: str = "", name: str | None = None) -> str | None:
+    """Why a run folder's place may not be on the board (None: it may), before anything
+    in it is read: the folder is a symbolic link (`LINK_REFUSAL`), or a name on its path
+    (the folders under `base`, its method's, its task's and its own; every entry in it)
+    is refused by `name_refusal`.
+
+    Args:
+      run_dir: The run folder.
+      base: The folder of the runs judged together (their common path; "": none).
+      name: The run's folder name, if not `run_dir`'s own (`run_refusal`).
+
+    Returns:
+      A one-line reason, or None.
+    """
+    path = os.path.normpath(os.path.abspath(run_dir))
+    if os.path.islink(path):
+        return LINK_REFUSAL
+    parts = path.split(os.sep)
+    own = parts[-1] if name is None else name
+    rel = os.path.relpath(path, base) if base else ""
+    above = [] if rel in ("", ".") or rel.startswith("..") else rel.split(os.sep)[:-3]
+    for folder in above:
+        reason = name_refusal(folder, "a folder above it")
+        if reason:
+            return reason
+    for folder, what in zip(parts[-3:-1], ("its method's folder", "its task's folder")):
+        reason = name_refusal(folder, what)
+        if reason:
+            return reason
+    reason = name_refusal(own)
+    if reason:
+        return reason
+    try:
+        entries = sorted(os.listdir(path))
+    except OSError as e:
+        return f"its folder cannot be listed ({type(e).__name__})"
+    for entry in entries:
+        if not entry.isprintable():
+            return name_refusal(entry, "a file in it")
+    return None
 
 
 def file_digest(path: str) -> str:
@@ -524,7 +622,7 @@ def actions_refusal(path: str, steps: int) -> str | None:
             else:
                 return f"its {ACTIONS} is a .npy file of format {version}, not 1.0 or 2.0"
         except ValueError as e:
-            return f"its {ACTIONS} is not a NumPy .npy array ({e})"
+            return f"its {ACTIONS} is not a NumPy .npy array ({_one_line(e)})"
     if dtype.hasobject:
         return f"its {ACTIONS} holds Python objects (pickles), not float64 actions"
     if dtype != np.float64:
@@ -534,7 +632,56 @@ def actions_refusal(path: str, steps: int) -> str | None:
             f"its {ACTIONS} is a {tuple(shape)} table, not one row of {n_actions} actions per "
             f"control step of its {steps}-step trials"
         )
+    try:  # the header checked against the bytes behind it, then the values
+        table = exported.load_npy(path)
+    except (ValueError, MemoryError) as e:
+        return _one_line(e)
+    if not np.all(np.isfinite(table)):
+        return (
+            f"its {ACTIONS} holds a value that is not finite (NaN or infinity): actions are "
+            "numbers in [-1, 1]"
+        )
+    if np.any(np.abs(table) > 1.0):
+        return f"its {ACTIONS} holds an action outside the task's action space [-1, 1]"
     return None
+
+
+def policy_refusal(path: str) -> str | None:
+    """Why an exported policy's file (`EXPORTED`) may not be read as one (None: it may):
+    a zip that unpacks to more than a run file may hold, a member that is not a plain
+    `.npy` array of the size its header says (`exported.load_npz`: no pickles, nothing
+    allocated that the file does not hold), no action space, or a numeric array with a
+    value that is not finite (NaN or infinity: a policy's weights and normalizer are
+    numbers).
+
+    Args:
+      path: The run's `selected_policy.npz`.
+
+    Returns:
+      A one-line reason, or None.
+
+    Raises:
+      OSError: If the file cannot be read.
+    """
+    try:
+        copies._require_bounded_zip(path)
+        arrays = exported.load_npz(path)
+    except (ValueError, MemoryError) as e:
+        return _one_line(e)
+    if "action_space" not in arrays:
+        return f"its {EXPORTED} names no action_space (an array of text: joints or cpg)"
+    for key, array in arrays.items():
+        if array.dtype.kind in "biuf" and not np.all(np.isfinite(array)):
+            return (
+                f"its {EXPORTED}'s {key!r} holds a value that is not finite (NaN or "
+                "infinity): a policy's arrays are finite numbers"
+            )
+    return None
+
+
+def _one_line(error: object) -> str:
+    """An error's words on one line (`exported.one_line`), at most 300 characters."""
+    return exported.one_line(error, 300)
 
 
 def card_under(summary: dict, version: int | None) -> dict | None:
@@ -614,6 +761,9 @@ def run_refusal(run_dir: str, version: int | None = None, name: str | None = Non
     Returns:
       A one-line reason, or None.
     """
+    reason = path_refusal(run_dir, name=name)
+    if reason:
+        return reason
     name = os.path.basename(os.path.normpath(run_dir)) if name is None else name
     if PARTIAL_NAME.match(name):
         return (
@@ -629,7 +779,9 @@ def run_refusal(run_dir: str, version: int | None = None, name: str | None = Non
     try:
         return _refusal(run_dir, version, name)
     except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError) as e:
-        return f"unreadable run files ({type(e).__name__}: {e})"
+        return _one_line(f"unreadable run files ({type(e).__name__}: {e})")
+    except MemoryError:
+        return "unreadable run files: reading them would take more memory than there is"
 
 
 HISTORY_KEY = re.compile(r"v(?P<version>[1-9][0-9]*)")  # whole key (`fullmatch`): v<n>
@@ -706,6 +858,10 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
             "the version it trained under"
         )
     steps = settings["trial_steps"]
+    if artifact_files(run_dir) == (EXPORTED,):
+        reason = policy_refusal(os.path.join(run_dir, EXPORTED))
+        if reason:
+            return reason
     if artifact_files(run_dir) == (ACTIONS,):
         reason = actions_refusal(os.path.join(run_dir, ACTIONS), steps)
         if reason:
@@ -1091,10 +1247,16 @@ def refusals(
     """
     run_dirs = list(run_dirs)
     refused, kept, seeds = {}, [], {}
-    ledgers = {d: ledger for d in run_dirs} if ledger is not None else _ledgers(run_dirs)
     base = os.path.commonpath([os.path.abspath(d) for d in run_dirs]) if run_dirs else ""
-    on_record = {d: _on_record(d, ledgers[d]) for d in run_dirs}
-    for run_dir in sorted(run_dirs, key=lambda d: (not on_record[d], copies.started(d), d)):
+    # A link, or a name that is not printable text: refused before anything in it is read.
+    for run_dir in run_dirs:
+        reason = path_refusal(run_dir, base)
+        if reason:
+            refused[run_dir] = reason
+    judged = [d for d in run_dirs if d not in refused]
+    ledgers = {d: ledger for d in judged} if ledger is not None else _ledgers(judged)
+    on_record = {d: _on_record(d, ledgers[d]) for d in judged}
+    for run_dir in sorted(judged, key=lambda d: (not on_record[d], copies.started(d), d)):
         reason = run_refusal(run_dir, version)
         if reason is None:
             reason, fingerprint = _copy_refusal(run_dir, version, kept, base)
@@ -1154,11 +1316,12 @@ def _on_record(run_dir: str, ledger: dict[str, dict]) -> bool:
 
 def shown(run_dir: str, base: str) -> str:
     """A run as a refusal names it: its path under the runs judged (`base`, their common
-    folder) where that names its method, task and run, else `<method>/<task>/<run>`."""
+    folder) where that names its method, task and run, else `<method>/<task>/<run>`;
+    escaped where a name in it is not printable (`shown_name`)."""
     rel = os.path.relpath(os.path.abspath(run_dir), base) if base else ""
     if rel.count(os.sep) >= 2 and not rel.startswith(".."):
-        return rel
-    return os.path.join(*_tail(run_dir))
+        return shown_name(rel)
+    return shown_name(os.path.join(*_tail(run_dir)))
 
 
 def _seed_refusal(run_dir: str, seeds: dict, base: str = "") -> tuple[str | None, tuple]:
@@ -1184,8 +1347,8 @@ def _copy_refusal(run_dir: str, version: int | None, kept: list, base: str = "")
     trials = read_trials(os.path.join(run_dir, trials_name))
     try:
         fingerprint = copies.fingerprint(run_dir, artifact_files(run_dir), trials)
-    except (OSError, ValueError, KeyError, TypeError, SyntaxError) as e:
-        return f"unreadable gait or policy ({type(e).__name__}: {e})", None
+    except (OSError, ValueError, KeyError, TypeError, SyntaxError, MemoryError) as e:
+        return _one_line(f"unreadable gait or policy ({type(e).__name__}: {e})"), None
     trained_as = _trained_as(run_dir)
     for earlier, their_physics, theirs in kept:
         same = their_physics == trained_as and copies.copy_of(fingerprint, theirs)

@@ -51,8 +51,9 @@ The tolerances are choices, below what separates two honest seeds: a test checks
 the shipped runs of one trained version lie at least 1000 times the trial tolerance,
 5 times `VALUE_RTOL`, 3 times `HALF_RTOL` and 5 times `ALL_RTOL` apart (`closest_pairs`).
 
-Nothing here executes code: JSON and CSV are parsed, NumPy arrays are read with
-`allow_pickle=False`, Python is parsed with `ast`, pickles are hashed.
+Nothing here executes code: JSON and CSV are parsed, NumPy arrays are read by
+`exported.load_npy` and `load_npz` (headers checked before anything is allocated, no
+pickles), Python is parsed with `ast`, pickles are hashed.
 """
 
 from __future__ import annotations
@@ -166,7 +167,7 @@ def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple 
         policy = exported.NumpyPolicy.load(path)
         return (*_arrays({**policy.arrays(), "action_space": policy.action_space}), None)
     if name.endswith(".npy"):
-        return (*_arrays({"actions": np.load(path, allow_pickle=False)}), None)
+        return (*_arrays({"actions": exported.load_npy(path)}), None)  # header checked first
     if name.endswith(".py"):
         source = run_files.read_text(path)  # a regular file of bounded size
         try:
@@ -189,10 +190,22 @@ def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple 
 
 
 def _require_bounded_zip(path: str) -> None:
-    """Raises ValueError if a zip (an `.npz`, an SB3 model) would unpack to more than
-    `files.MAX_BYTES` in all: no member is read before this holds."""
-    with zipfile.ZipFile(path) as z:
-        total = sum(info.file_size for info in z.infolist())
+    """Checks that a zip (an `.npz`, an SB3 model) unpacks to at most `files.MAX_BYTES` in
+    all, as its members declare: no member is read before this holds (each `.npy` member
+    is then held to its declared size, `exported.read_npy`).
+
+    Args:
+      path: The zip file.
+
+    Raises:
+      ValueError: If it would unpack to more, or is not a zip file.
+      OSError: If it cannot be read.
+    """
+    try:
+        with zipfile.ZipFile(path) as z:
+            total = sum(info.file_size for info in z.infolist())
+    except zipfile.BadZipFile as e:
+        raise ValueError(f"{os.path.basename(path)} is not a zip archive ({e})") from None
     if total > run_files.MAX_BYTES:
         raise ValueError(
             f"{os.path.basename(path)} unpacks to {total} bytes, over the {run_files.MAX_BYTES}"

@@ -23,7 +23,8 @@ MAX_BYTES = 64 * 2**20
 
 def refusal(path: str) -> str | None:
     """Why a run file may not be read (None: it may): a symbolic link, not a regular file,
-    or larger than `MAX_BYTES`. A missing file is the caller's question (None here).
+    larger than `MAX_BYTES`, or one that cannot be opened (its permissions). A missing file
+    is the caller's question (None here).
 
     Args:
       path: The file's path.
@@ -44,6 +45,11 @@ def refusal(path: str) -> str | None:
         return f"{name} is not a regular file"
     if info.st_size > MAX_BYTES:
         return f"{name} holds {info.st_size} bytes, over the {MAX_BYTES} a run file may hold"
+    try:  # a regular file: opening it neither blocks nor follows a link
+        with open(path, "rb"):
+            pass
+    except OSError as e:
+        return f"{name} cannot be read ({type(e).__name__})"
     return None
 
 

@@ -20,15 +20,25 @@ first), `action_space` ("joints" or "cpg") and `head` (`HEADS`; files without it
 The format of `selected_actions.npy` (written by `ActionTable.save`): one float64 array of
 shape (control steps, 12), row t the task's action at control step t of a trial (0-based,
 from the reset), each value in the action spec's [−1, 1]; a NumPy `.npy` file without
-pickled objects (`np.load(..., allow_pickle=False)` reads it).
+pickled objects.
 
 `cpg_suite.protocol.verify` re-scores shipped runs of both formats; neither runs code when
-it is loaded.
+it is loaded. Both are read by `load_npy` and `load_npz`, never by NumPy's loader: each
+array's `.npy` header is checked before anything is allocated (`read_npy`: plain numbers
+or text, never objects; exactly as many data bytes as its shape and type say), so a file
+whose header lies about its size is refused in one line instead of allocating what it
+claims.
 """
 
 from __future__ import annotations
 
 import io
+import math
+import os
+import re
+import zipfile
+import zlib
+from typing import BinaryIO
 
 import numpy as np
 
@@ -51,6 +61,138 @@ VEC_NORMALIZE = ("var", "epsilon", "clip_obs")
 
 
 _ROWS = 8  # observations per pass through the network (`mlp`)
+
+# The kinds of value (`numpy.dtype.kind`) an array of a run's file may hold: booleans,
+# integers, floats and fixed-width text (a policy's head, activation, action space). Never
+# Python objects (pickles), records, raw bytes or complex numbers.
+ARRAY_KINDS = "biufU"
+_HEADER_READERS = {
+    (1, 0): np.lib.format.read_array_header_1_0,
+    (2, 0): np.lib.format.read_array_header_2_0,
+}
+
+
+def one_line(text: object, limit: int = 160) -> str:
+    """`text` (an error's words) on one line, at most `limit` characters, without memory
+    addresses (NumPy's words may quote `<ast.Name object at 0x...>`): a refusal quoting
+    them reads the same on every run.
+
+    Args:
+      text: The text, or an error.
+      limit: The most characters kept.
+
+    Returns:
+      The line.
+    """
+    text = re.sub(r" at 0x[0-9a-fA-F]+", "", " ".join(str(text).split()))
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def read_npy(stream: BinaryIO, size: int, name: str) -> np.ndarray:
+    """One `.npy` array from a stream, its header checked before its data is read: format
+    1.0 or 2.0, values of `ARRAY_KINDS` (no pickled objects), a shape whose values take
+    exactly the bytes that follow the header (neither more, which a lying header claims
+    to allocate them, nor fewer). Nothing is unpickled and nothing larger than `size` is
+    allocated.
+
+    Args:
+      stream: A binary stream at the start of the `.npy` data (a file, a zip member).
+      size: The bytes the stream holds in all, header included (a file's size, a zip
+        member's `file_size`).
+      name: The file's name, for the refusal.
+
+    Returns:
+      The array, in C or Fortran order as its header says.
+
+    Raises:
+      ValueError: With a one-line reason naming the file, if it is not such an array.
+    """
+    try:
+        version = np.lib.format.read_magic(stream)
+        reader = _HEADER_READERS.get(version)
+        if reader is None:
+            raise ValueError(f"format {version[0]}.{version[1]}, not 1.0 or 2.0")
+        shape, fortran_order, dtype = reader(stream)
+    except (ValueError, TypeError, SyntaxError, OverflowError) as e:
+        raise ValueError(f"{name} is not a NumPy .npy array ({one_line(e)})") from None
+    if dtype.hasobject:
+        raise ValueError(
+            f"{name} holds Python objects (pickles): arrays are read with allow_pickle=False, "
+            "numbers or text only"
+        )
+    if dtype.kind not in ARRAY_KINDS or dtype.fields is not None or dtype.itemsize == 0:
+        raise ValueError(
+            f"{name} holds {dtype} values: an array holds booleans, integers, floats or text"
+        )
+    if any(n < 0 for n in shape):
+        raise ValueError(f"{name}'s header gives the shape {shape}, with a negative length")
+    claimed = math.prod(shape) * dtype.itemsize
+    present = size - stream.tell()
+    if claimed != present:
+        raise ValueError(
+            f"{name}'s header says {shape} {dtype} values ({claimed} bytes), but {present} "
+            "bytes follow it: the data must be exactly what the header says"
+        )
+    data = stream.read(claimed)
+    if len(data) != claimed:
+        raise ValueError(f"{name} is cut short: {len(data)} of its {claimed} data bytes")
+    array = np.frombuffer(bytearray(data), dtype=dtype)
+    if fortran_order:
+        return array.reshape(shape[::-1]).transpose()
+    return array.reshape(shape)
+
+
+def load_npy(path: str) -> np.ndarray:
+    """A `.npy` file's array, read by `read_npy` (its header checked first; no pickles).
+
+    Args:
+      path: The file.
+
+    Returns:
+      The array.
+
+    Raises:
+      OSError: If it cannot be read.
+      ValueError: With a one-line reason, if it is not a plain `.npy` array of its size.
+    """
+    with open(path, "rb") as f:
+        return read_npy(f, os.fstat(f.fileno()).st_size, os.path.basename(path))
+
+
+def load_npz(path: str) -> dict[str, np.ndarray]:
+    """A `.npz` archive's arrays by name (a member `<name>.npy` is `<name>`, as NumPy
+    names it), each read by `read_npy` against the member's own size: no member larger
+    than its header says, none that is not a `.npy` array, no name twice.
+
+    Args:
+      path: The archive.
+
+    Returns:
+      {name: array}, in the archive's order.
+
+    Raises:
+      OSError: If it cannot be read.
+      ValueError: With a one-line reason, if it is not such an archive.
+    """
+    base = os.path.basename(path)
+    arrays = {}
+    try:
+        with zipfile.ZipFile(path) as archive:
+            for info in archive.infolist():
+                member = info.filename
+                if not member.endswith(".npy"):
+                    raise ValueError(f"{base} holds {member!r}, not a .npy array")
+                key = member[: -len(".npy")]
+                if key in arrays:
+                    raise ValueError(f"{base} holds {member!r} twice")
+                shown = member if member.isprintable() else repr(member)
+                with archive.open(info) as stream:
+                    arrays[key] = read_npy(stream, info.file_size, f"{base}:{shown}")
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, EOFError) as e:
+        raise ValueError(f"{base} is not a readable .npz archive ({one_line(e)})") from None
+    except (NotImplementedError, RuntimeError) as e:  # a compression or encryption
+        raise ValueError(f"{base}: a member NumPy cannot read ({one_line(e)})") from None
+    return arrays
 
 
 def mlp(x: np.ndarray, layers, activation) -> np.ndarray:
@@ -160,9 +302,22 @@ class NumpyPolicy:
 
     @classmethod
     def load(cls, path: str) -> NumpyPolicy:
-        """A policy saved by `save` (read without unpickling)."""
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {k: data[k] for k in data.files}
+        """A policy saved by `save`, read by `load_npz` (headers checked, no pickles).
+
+        Args:
+          path: Its `.npz` file.
+
+        Returns:
+          The policy.
+
+        Raises:
+          OSError: If the file cannot be read.
+          ValueError: If it is not a policy's archive (`load_npz`, `__init__`).
+          KeyError: If a layer's bias or a normalizer's array is missing.
+        """
+        arrays = load_npz(path)
+        if "action_space" not in arrays:
+            raise ValueError(f"{os.path.basename(path)} names no action_space")
         return cls(arrays, str(arrays.pop("action_space")))
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -268,17 +423,21 @@ class ActionTable:
 
     @classmethod
     def load(cls, path: str) -> ActionTable:
-        """A table saved by `save`: a float64 `.npy` array, read without unpickling.
+        """A table saved by `save`: a float64 `.npy` array, read by `load_npy` (its header
+        checked first, no pickles).
+
+        Args:
+          path: Its `.npy` file.
+
+        Returns:
+          The table.
 
         Raises:
           OSError: If the file cannot be read.
-          ValueError: If it is no `.npy` array of float64 actions (`__init__`'s checks), or
-            holds pickled objects.
+          ValueError: If it is no `.npy` array of float64 actions (`load_npy`'s and
+            `__init__`'s checks), or holds pickled objects.
         """
-        table = np.load(path, allow_pickle=False)
-        if not isinstance(table, np.ndarray):  # an .npz archive
-            table.close()
-            raise ValueError(f"{path} is not a single .npy array")
+        table = load_npy(path)
         if table.dtype != np.float64:
             raise ValueError(f"{path} holds {table.dtype} values, not float64")
         return cls(table)

@@ -1,0 +1,340 @@
+"""An outside review of the board's trust boundary (2026-11-29), as classes of attack: a
+`.npy` header that lies about the data behind it (in an action table and in each member of
+an exported policy), an action table or policy with a value that is not finite, names
+that are not printable text (a newline forges a line of the listing), run and method
+folders that are symbolic links, seed numbers in digits other than ASCII's, and a gait
+shipped through a link. Each is refused or listed in one line, and none raises.
+"""
+
+import csv
+import io
+import os
+import shutil
+import zipfile
+
+import numpy as np
+import pytest
+
+from analysis import leaderboard
+from cpg_suite.protocol import admission, verify
+from cpg_suite.runfiles import exported
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RUNS = os.path.join(ROOT, "results", "protocol", "runs")
+GAIT_RUN = os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed0")
+PPO_RUN = os.path.join(RUNS, "ppo", "darwin_walk", "joints_seed0")
+STEPS = 1000  # the shipped runs' trial_steps
+
+
+def _header(descr, shape, fortran_order=False, version=(1, 0)) -> bytes:
+    buf = io.BytesIO()
+    header = {"descr": descr, "fortran_order": fortran_order, "shape": shape}
+    if version == (1, 0):
+        np.lib.format.write_array_header_1_0(buf, header)
+    else:
+        np.lib.format.write_array_header_2_0(buf, header)
+    return buf.getvalue()
+
+
+def _npy(array: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    np.save(buf, array, allow_pickle=True)
+    return buf.getvalue()
+
+
+# Each lie: (a valid array) -> the bytes of a `.npy` file that is not that array, honestly.
+LIES = {
+    "huge shape, tiny data": lambda a: _header("<f8", (4_000_000_000,)) + b"\0" * 64,
+    "huge shape, format 2.0": lambda a: _header("<f8", (2**40,), version=(2, 0)) + b"\0" * 64,
+    "one value more than the data": lambda a: _header("<f8", (a.size + 1,)) + a.tobytes(),
+    "more data than the shape": lambda a: _npy(a) + b"\0" * 8,
+    "truncated data": lambda a: _npy(a)[:-8],
+    "truncated header": lambda a: _npy(a)[:20],
+    "pickled objects": lambda a: _npy(np.array([{"w": 1.0}], dtype=object)),
+    "huge text items": lambda a: _header("<U1000000000", (1,)) + b"\0" * 64,
+    "empty text items": lambda a: _header("<U0", (8,)),
+    "records": lambda a: _header([("w", "<f8")], (a.size,)) + a.tobytes(),
+    "complex numbers": lambda a: _header("<c16", (a.size // 2,)) + a.tobytes(),
+    "format 3.0": lambda a: np.lib.format.magic(3, 0) + _npy(a)[8:],
+    "not a header": lambda a: np.lib.format.magic(1, 0) + b"\x10\x00" + b"{not python}" + b" " * 4,
+    "not npy at all": lambda a: b"PK\x03\x04 this is no array",
+}
+
+
+@pytest.mark.parametrize("lie", sorted(LIES))
+def test_a_lying_npy_header_is_refused_in_one_line_before_anything_is_allocated(tmp_path, lie):
+    array = np.arange(24, dtype=np.float64) / 100
+    path = tmp_path / "a.npy"
+    path.write_bytes(LIES[lie](array))
+    with pytest.raises(ValueError) as error:
+        exported.load_npy(str(path))
+    assert "\n" not in str(error.value) and str(error.value).startswith("a.npy")
+
+
+@pytest.mark.parametrize(
+    "array",
+    [
+        np.asfortranarray(np.arange(24, dtype=np.float64).reshape(4, 6)),
+        np.arange(24, dtype=">f8").reshape(2, 3, 4),
+        np.array("swish"),
+        np.float64(0.25),
+        np.zeros((0, 12)),
+        np.array([True, False]),
+    ],
+    ids=["fortran order", "big-endian", "text", "scalar", "empty", "booleans"],
+)
+def test_an_honest_npy_reads_as_numpy_reads_it(tmp_path, array):
+    path = tmp_path / "a.npy"
+    np.save(path, array)
+    mine, numpy_s = exported.load_npy(str(path)), np.load(path, allow_pickle=False)
+    assert mine.dtype == numpy_s.dtype and mine.shape == numpy_s.shape
+    assert np.array_equal(mine, numpy_s)
+
+
+def test_every_shipped_policy_reads_as_numpy_reads_it():
+    paths = [
+        os.path.join(d, exported.FILE)
+        for d, _, names in os.walk(RUNS)
+        if exported.FILE in names  # the shipped exported policies
+    ]
+    assert len(paths) >= 40
+    for path in paths:
+        with np.load(path, allow_pickle=False) as theirs:
+            expected = {k: theirs[k] for k in theirs.files}
+        mine = exported.load_npz(path)
+        assert list(mine) == list(expected)
+        for key, value in expected.items():
+            assert mine[key].dtype == value.dtype and np.array_equal(mine[key], value), key
+
+
+def _copy(tmp_path, source, method, name) -> str:
+    dest = tmp_path / "runs" / method / "darwin_walk" / name
+    shutil.copytree(source, dest)
+    return str(dest)
+
+
+def _actions_run(tmp_path, data: bytes) -> str:
+    """A shipped gait run made an action-table run: its table is scored first."""
+    run = _copy(tmp_path, GAIT_RUN, "plan", "T_seed0")
+    with open(os.path.join(run, admission.ACTIONS), "wb") as f:
+        f.write(data)
+    return run
+
+
+def _policy_run(tmp_path, member: str, data: bytes) -> str:
+    """A shipped PPO run whose policy's `member` is replaced by `data`."""
+    run = _copy(tmp_path, PPO_RUN, "ppo", "joints_seed0")
+    path = os.path.join(run, admission.EXPORTED)
+    with zipfile.ZipFile(path) as z:
+        members = {n: z.read(n) for n in z.namelist()}
+    members[member] = data
+    with zipfile.ZipFile(path, "w") as z:
+        for name, value in members.items():
+            z.writestr(name, value)
+    return run
+
+
+def _board_refusal(run: str) -> str:
+    """The one-line reason the board gives `run` (asserting it refuses it, without raising)."""
+    found, skipped = leaderboard.find_runs(os.path.dirname(os.path.dirname(os.path.dirname(run))))
+    admitted, refused = leaderboard.admit(found)
+    assert admitted == [] and len(refused) == 1, (admitted, refused, skipped)
+    reason = refused[0]["reason"]
+    assert reason and reason.isprintable(), reason
+    assert reason == admission.refusals([run]).get(run)
+    return reason
+
+
+def test_an_honest_action_table_and_policy_are_admitted(tmp_path):
+    run = _actions_run(tmp_path / "a", _npy(np.zeros((STEPS, 12))))
+    assert admission.refusals([run]) == {}
+    run = _copy(tmp_path / "p", PPO_RUN, "ppo", "joints_seed0")
+    assert admission.refusals([run]) == {}
+
+
+@pytest.mark.parametrize("lie", sorted(LIES))
+def test_the_board_refuses_an_action_table_whose_header_lies(tmp_path, lie):
+    run = _actions_run(tmp_path, LIES[lie](np.zeros((STEPS, 12))))
+    assert admission.ACTIONS in _board_refusal(run)
+
+
+@pytest.mark.parametrize("member", ["mean.npy", "kernel_0.npy", "action_space.npy"])
+@pytest.mark.parametrize("lie", sorted(LIES))
+def test_the_board_refuses_a_policy_whose_member_header_lies(tmp_path, lie, member):
+    with zipfile.ZipFile(os.path.join(PPO_RUN, admission.EXPORTED)) as z:
+        honest = np.load(io.BytesIO(z.read(member)), allow_pickle=False)
+    run = _policy_run(tmp_path, member, LIES[lie](honest))
+    assert admission.EXPORTED in _board_refusal(run)
+
+
+@pytest.mark.filterwarnings("ignore:Duplicate name")
+@pytest.mark.parametrize(
+    "member, data",
+    [
+        ("notes.txt", b"a member that is no array"),
+        ("kernel_0.npy", None),  # a second kernel_0: which one would count?
+        ("extra.npy", b""),
+    ],
+)
+def test_the_board_refuses_a_policy_archive_that_is_not_plain_arrays(tmp_path, member, data):
+    run = _copy(tmp_path, PPO_RUN, "ppo", "joints_seed0")
+    path = os.path.join(run, admission.EXPORTED)
+    with zipfile.ZipFile(path) as z:
+        added = z.read(member) if data is None else data
+    with zipfile.ZipFile(path, "a") as z:
+        z.writestr(member, added)
+    assert admission.EXPORTED in _board_refusal(run)
+
+
+def test_the_board_refuses_a_policy_file_that_is_no_zip(tmp_path):
+    run = _copy(tmp_path, PPO_RUN, "ppo", "joints_seed0")
+    with open(os.path.join(run, admission.EXPORTED), "wb") as f:
+        f.write(b"not a zip at all")
+    assert admission.EXPORTED in _board_refusal(run)
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf, 1.5])
+def test_the_board_refuses_an_action_table_with_one_value_not_finite_or_out_of_range(
+    tmp_path, value
+):
+    table = np.zeros((STEPS, 12))
+    table[STEPS // 2, 7] = value
+    run = _actions_run(tmp_path, _npy(table))
+    reason = _board_refusal(run)
+    assert reason.startswith(f"its {admission.ACTIONS} holds"), reason
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize("member", ["mean.npy", "var.npy", "kernel_1.npy", "bias_2.npy"])
+def test_the_board_refuses_a_policy_with_one_value_not_finite(tmp_path, value, member):
+    with zipfile.ZipFile(os.path.join(PPO_RUN, admission.EXPORTED)) as z:
+        array = np.load(io.BytesIO(z.read(member)), allow_pickle=False).copy()
+    array.flat[array.size // 2] = value
+    run = _policy_run(tmp_path, member, _npy(array))
+    reason = _board_refusal(run)
+    assert "not finite" in reason and repr(member[:-4]) in reason, reason
+
+
+# Names that are not printable text: a newline (forges a line), a carriage return, a tab,
+# an escape sequence, DEL, a right-to-left override and a zero-width space (hide text), a
+# line separator.
+UNPRINTABLE = ["evil\nok   fake", "cr\rx", "tab\tx", "\x1b[31mred", "del\x7f", "bidi\u202eman"]
+UNPRINTABLE += ["zero\u200bwidth", "line\u2028sep"]
+
+
+def _not_admitted_lines(tmp_path, runs) -> tuple[list[str], list[dict]]:
+    """The board's not-admitted file as lines of text, and as rows."""
+    out = tmp_path / "board" / "leaderboard.csv"
+    leaderboard.write_tables(str(runs), str(out))
+    path = out.parent / "darwin_not_admitted.csv"
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    return path.read_text(encoding="utf-8").splitlines(), rows
+
+
+@pytest.mark.parametrize("name", UNPRINTABLE)
+@pytest.mark.parametrize("level", ["run", "method", "file"])
+def test_a_name_that_is_not_printable_is_refused_escaped_and_forges_no_line(tmp_path, name, level):
+    _copy(tmp_path, GAIT_RUN, "cem", "K50_n0.8_e2_seed0")
+    if level == "run":
+        run = _copy(tmp_path, GAIT_RUN, "cem", f"{name}_seed3")
+    elif level == "method":
+        run = _copy(tmp_path, GAIT_RUN, name, "K50_seed3")
+    else:
+        run = _copy(tmp_path, GAIT_RUN, "mine", "K50_seed3")
+        with open(os.path.join(run, name), "w") as f:
+            f.write("a file whose name is not printable\n")
+    lines, refused = _not_admitted_lines(tmp_path, tmp_path / "runs")
+    assert len(lines) == 2, lines  # the header and one row: no line forged
+    (row,) = refused
+    assert all(str(v).isprintable() for v in row.values()), row
+    assert repr(name)[1:-1] in row["reason"] and "printable" in row["reason"], row["reason"]
+    assert all(line.isprintable() for line in lines), lines
+
+
+def test_a_folder_above_the_runs_whose_name_is_not_printable_is_refused(tmp_path):
+    ok = _copy(tmp_path / "ok", GAIT_RUN, "cem", "K50_n0.8_e2_seed0")
+    evil = _copy(tmp_path / "evil\nline", GAIT_RUN, "cma", "K_seed1")
+    reasons = admission.refusals([ok, evil])
+    assert list(reasons) == [evil]
+    assert reasons[evil].startswith("a folder above it's name 'evil\\nline'")
+
+
+def test_symlinked_run_task_and_method_folders_are_listed_not_dropped(tmp_path):
+    real = _copy(tmp_path, GAIT_RUN, "cem", "K50_n0.8_e2_seed0")
+    runs = tmp_path / "runs"
+    os.symlink(
+        os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed1"),
+        os.path.join(os.path.dirname(real), "K50_n0.8_e2_seed1"),
+    )
+    os.symlink(os.path.join(RUNS, "cmaes"), runs / "cmaes")  # a method's folder
+    (runs / "ppo").mkdir()
+    os.symlink(os.path.join(RUNS, "ppo", "darwin_walk"), runs / "ppo" / "darwin_walk")
+    found, _ = leaderboard.find_runs(str(runs))
+    admitted, refused = leaderboard.admit(found)
+    assert [r["dir"] for r in admitted] == [real]
+    listed = {(r["method"], r["training_task"], r["seed"]): r["reason"] for r in refused}
+    assert listed == {
+        ("cem", "darwin_walk", 1): admission.LINK_REFUSAL,
+        ("cmaes", "", ""): admission.LINK_REFUSAL,
+        ("ppo", "darwin_walk", ""): admission.LINK_REFUSAL,
+    }
+    # nothing through a link is read: no run inside the linked method's folder is found
+    assert all("cmaes" not in os.path.relpath(r["dir"], runs)[6:] for r in found)
+
+
+@pytest.mark.parametrize("digits", ["\u0660", "\uff11", "\u0967", "1\u0660", "\U0001d7ce"])
+def test_a_seed_in_digits_other_than_ascii_is_refused_and_displaces_no_seed(tmp_path, digits):
+    real = _copy(tmp_path, GAIT_RUN, "cem", "K50_n0.8_e2_seed0")
+    odd = _copy(
+        tmp_path,
+        os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed1"),
+        "cem",
+        f"K50_n0.8_e2_seed{digits}",
+    )
+    assert admission.SEED_NAME.match(os.path.basename(odd)) is None
+    assert leaderboard._SEED is admission.SEED_NAME
+    found, _ = leaderboard.find_runs(str(tmp_path / "runs"))
+    admitted, refused = leaderboard.admit(found)
+    assert [r["dir"] for r in admitted] == [real]
+    (row,) = refused
+    assert row["seed"] == "" and "not in ASCII digits" in row["reason"], row
+    assert repr(os.path.basename(odd)) in row["reason"]
+
+
+def test_the_file_check_refuses_a_symlinked_gait(tmp_path):
+    run = _copy(tmp_path, GAIT_RUN, "cem", "K50_n0.8_e2_seed0")
+    os.remove(os.path.join(run, "selected_params.json"))
+    os.symlink(
+        os.path.join(RUNS, "cem", "darwin_walk", "K50_n0.8_e2_seed1", "selected_params.json"),
+        os.path.join(run, "selected_params.json"),
+    )
+    assert admission.file_refusal(run) == (
+        "selected_params.json is a symbolic link, not a file of the run's own"
+    )
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="A10: verify.ship_all does not call admission.file_refusal yet (verify.py is "
+    "being edited on another branch; see the commit message)",
+)
+def test_ship_from_refuses_a_symlinked_gait_in_one_line_and_goes_on(tmp_path):
+    root = tmp_path / "finished"
+    run = root / "cem" / "darwin_walk" / "a_seed0"
+    shutil.copytree(GAIT_RUN, run)
+    os.remove(run / "trials.csv")
+    (tmp_path / "elsewhere.json").write_text("not the gait: another file's content")
+    os.remove(run / "selected_params.json")
+    os.symlink(tmp_path / "elsewhere.json", run / "selected_params.json")
+    half = root / "cem" / "darwin_walk" / "b_seed1"
+    half.mkdir()
+    (half / "summary.json").write_text("{}")
+    logged = []
+    shipped = verify.ship_all(str(root), str(tmp_path / "shipped"), log=logged.append)
+    assert shipped == 0
+    assert logged[0] == (
+        f"not shipped {run}: selected_params.json is a symbolic link, not a file of the run's own"
+    )
+    assert logged[1].startswith(f"not shippable {half}: missing ")
+    assert not (tmp_path / "shipped").exists()
