@@ -314,11 +314,6 @@ def test_the_file_check_refuses_a_symlinked_gait(tmp_path):
     )
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="A10: verify.ship_all does not call admission.file_refusal yet (verify.py is "
-    "being edited on another branch; see the commit message)",
-)
 def test_ship_from_refuses_a_symlinked_gait_in_one_line_and_goes_on(tmp_path):
     root = tmp_path / "finished"
     run = root / "cem" / "darwin_walk" / "a_seed0"
