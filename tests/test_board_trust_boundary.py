@@ -333,3 +333,60 @@ def test_ship_from_refuses_a_symlinked_gait_in_one_line_and_goes_on(tmp_path):
     )
     assert logged[1].startswith(f"not shippable {half}: missing ")
     assert not (tmp_path / "shipped").exists()
+
+
+@pytest.mark.parametrize(
+    "member, array",
+    [
+        ("mean.npy", np.float64(0.0)),  # a 0-d normalizer
+        ("kernel_0.npy", np.zeros((5, 0))),  # a layer of no outputs
+        ("bias_0.npy", np.zeros(3)),  # a bias of another width than its kernel
+        ("kernel_1.npy", np.zeros((7, 64))),  # rows that are not the last layer's outputs
+    ],
+)
+def test_the_board_refuses_a_policy_whose_layers_do_not_fit(tmp_path, member, array):
+    """Each array honest on its own, the policy they make is none the scorer can run (a
+    second outside attack, 2026-11-29: a 0-d mean and a 0-column kernel were admitted,
+    then verify could not score them): refused in one line."""
+    run = _policy_run(tmp_path, member, _npy(np.asarray(array)))
+    assert "is no policy the scorer can run" in _board_refusal(run)
+
+
+def test_the_board_refuses_a_policy_that_answers_no_leg_action(tmp_path):
+    """Its arrays fit together, but its last layer has one output fewer than the shipped
+    policy's: its action is not 12 leg actions."""
+    with zipfile.ZipFile(os.path.join(PPO_RUN, admission.EXPORTED)) as z:
+        last = max(int(n[len("kernel_") : -4]) for n in z.namelist() if n.startswith("kernel_"))
+        kernel = np.load(io.BytesIO(z.read(f"kernel_{last}.npy")))
+    width = kernel.shape[1] - 1
+    run = _policy_run(tmp_path, f"kernel_{last}.npy", _npy(kernel[:, :width]))
+    path = os.path.join(run, admission.EXPORTED)
+    with zipfile.ZipFile(path) as z:
+        members = {n: z.read(n) for n in z.namelist()}
+    members[f"bias_{last}.npy"] = _npy(np.zeros(width))
+    with zipfile.ZipFile(path, "w") as z:
+        for name, value in members.items():
+            z.writestr(name, value)
+    reason = _board_refusal(run)
+    assert "no policy the scorer can run" in reason or "not 12 finite leg actions" in reason
+
+
+@pytest.mark.parametrize(
+    "level, name",
+    [
+        ("run", "K50_n0.8_e2_seed0 "),  # a trailing space
+        ("run", " K50_n0.8_e2_seed0"),
+        ("run", "K50_n0.8_e\u0301_seed0"),  # a combining accent
+        ("method", "\u0441em"),  # a Cyrillic с
+    ],
+)
+def test_a_name_that_only_looks_like_another_is_refused(tmp_path, level, name):
+    """Printable names that read as another's (a second outside attack, 2026-11-29: a
+    Cyrillic method and a trailing space each made a board row that reads like cem's)."""
+    method, run_name = (name, "K50_n0.8_e2_seed0") if level == "method" else ("cem", name)
+    run = _copy(tmp_path, GAIT_RUN, method, run_name)
+    found, _ = leaderboard.find_runs(str(tmp_path / "runs"))
+    admitted, refused = leaderboard.admit(found)
+    assert admitted == [] and len(refused) == 1, (admitted, refused)
+    assert "outside ASCII or starts or ends with a space" in refused[0]["reason"]
+    assert repr(name) in refused[0]["reason"] and run

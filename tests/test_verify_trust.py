@@ -143,7 +143,7 @@ def attacked(tmp_path_factory):
     runs = tmp_path_factory.mktemp("attacked") / "runs"
     _copy(runs, "K50_n0.8_e2_seed0")
     forged = "ok   results/protocol/runs/cem/darwin_walk/K50_n0.8_e2_seed9"
-    message = f"boom\\n{forged}\\n103 of 103 shipped runs reproduced bit for bit"
+    message = f"boom\n{forged}\n103 of 103 shipped runs reproduced bit for bit"
     _as_code(_copy(runs, "code_seed1", OTHER_GAIT_RUN), f"raise ValueError({message!r})")
     _copy(runs, "evil\nok   fake_seed2", THIRD_GAIT_RUN)
     logged = []
@@ -157,7 +157,7 @@ def test_a_failing_policy_is_one_line_for_its_run_and_the_other_runs_are_checked
     assert len(logged) == 4 and failed in (1, 2)  # the third: refused for its name, or ok
     (code_line,) = [line for line in logged if "code_seed1" in line]
     assert code_line.startswith("DIFF ") and "could not be scored: PolicyFailed" in code_line
-    assert "boom\\nok   results" in code_line  # escaped, in its run's line
+    assert "boom ok results/protocol" in code_line and len(code_line) < 500  # its run's line
     assert f"ok   {runs}/cem/darwin_walk/K50_n0.8_e2_seed0" in logged
     assert logged[-1].startswith(f"{3 - failed} of 3 shipped runs reproduced bit for bit on")
     assert logged[-1].endswith("0 of them on record as re-scored in full")  # no ledger
@@ -174,11 +174,12 @@ def test_quick_does_not_vouch_for_a_run_edited_since_its_full_check(tmp_path):
     """The ledger's full check re-scored a run; its trials past --quick's five seeds a tier
     are then edited consistently (the rough tier's falls made 5.5 m walks): --quick, whose
     trials reproduce, says the files are not those re-scored in full. An unedited run on
-    record is "ok"."""
+    record is "ok"; the runs --quick leaves out are counted in its last line."""
     runs = tmp_path / "protocol" / "runs"
     edited, kept = _copy(runs, "K50_n0.8_e2_seed0"), _copy(runs, "K20_seed1", OTHER_GAIT_RUN)
+    later = _copy(runs, "K20_seed2", THIRD_GAIT_RUN)  # its configuration's second: not scored
     ledger = str(tmp_path / "protocol" / admission.LEDGER)
-    verify.write_ledger(ledger, {str(edited): [], str(kept): []})
+    verify.write_ledger(ledger, {str(edited): [], str(kept): [], str(later): []})
     late = {
         ("darwin_walk_rough", s)
         for s in sorted(
@@ -191,6 +192,7 @@ def test_quick_does_not_vouch_for_a_run_edited_since_its_full_check(tmp_path):
             row.update(fell="False", fall_step="0", cause="", distance_m="5.5")
 
     _edit_consistently(edited, walk)
+    _edit_consistently(later, walk)  # a run --quick does not re-score, edited alike
     assert (
         admission.refusals(verify.run_folders(str(runs)), ledger=admission.ledger_beside(str(runs)))
         == {}
@@ -201,10 +203,15 @@ def test_quick_does_not_vouch_for_a_run_edited_since_its_full_check(tmp_path):
     assert lines["K50_n0.8_e2_seed0"].startswith("DIFF ")
     assert "its files are not those the ledger's full check re-scored" in lines["K50_n0.8_e2_seed0"]
     assert lines["K20_seed1"].startswith("ok   ")
-    assert failed == 1
+    assert (
+        lines["K20_seed2"].startswith("DIFF ") and "not re-scored by --quick" in lines["K20_seed2"]
+    )
+    assert failed == 2
     assert logged[-1] == (
         "1 of 2 shipped runs reproduced bit for bit on --quick's trials (the first 5 test "
-        "seeds a tier), 1 of them on record as re-scored in full"
+        "seeds a tier), 1 of them on record as re-scored in full; 1 other runs, not the "
+        "first of their configuration, not re-scored by --quick (0 on record in full with "
+        "these files, 1 whose files differ: DIFF above)"
     )
 
 

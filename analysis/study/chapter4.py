@@ -137,10 +137,14 @@ def cr_4a_fine(ev: Evidence) -> v.Verdict:
 @rule("CR-4b")
 def cr_4b(ev: Evidence) -> v.Verdict:
     by = _gammas(ev)
-    low = [0.5, 0.6, 0.7, 0.75]
-    k = {g: by[g]["last_policy_change"] for g in low + [0.9]}
+    low = [0.5, 0.6, 0.7, 0.75, 0.79]  # CR-4a's grid below 0.8 (0.79 added after the sixth
+    k = {g: by[g]["last_policy_change"] for g in low + [0.9]}  # reading: it was left out)
     earlier = sum(k[g] < k[0.9] for g in low)
-    text = f"last greedy-policy change (sweep) by γ: {k}"
+    text = (
+        f"last greedy-policy change (sweep) by γ: {k}; beside, γ 0.8, which walks forward: "
+        f"{by[0.8]['last_policy_change']} (settling early does not set the γ below 0.8 "
+        "apart from those that walk, only from 0.9)"
+    )
     if earlier == len(low):
         return v.Verdict(v.HOLDS, text)
     if earlier <= 1:
@@ -1029,8 +1033,40 @@ def _apart(cis: dict) -> bool:
     )
 
 
+def _differ(ev: Evidence, column: str) -> list[str]:
+    """The pairs of α whose difference of mean `column` has a bootstrap 95 % interval that
+    excludes 0 (`verdicts.difference_interval`, the study's comparison of two settings)."""
+    values = {c: _col(ev, c, column) for c in ALPHAS}
+    keys = list(values)
+    return [
+        f"{ALPHAS[b]} − {ALPHAS[a]} {d:+.2g} [{low:+.2g}, {high:+.2g}]"
+        for i, a in enumerate(keys)
+        for b in keys[i + 1 :]
+        for d, low, high in [v.difference_interval(values[b], values[a])]
+        if low > 0 or high < 0
+    ]
+
+
 @rule("PB-12b")
 def pb_12b(ev: Evidence) -> v.Verdict:
+    """Alike early, apart late, by the interval of each pair's difference (revised after
+    the sixth reading of 2026-11-29: the per-α intervals' overlap, `pb_12b_by_overlap`,
+    called α values alike whose difference excludes 0)."""
+    early, late = _differ(ev, "rms_angle_2500_5000"), _differ(ev, "rms_angle_15000_20000")
+    text = (
+        f"α pairs whose rms θ differs, steps 2500-5000: {'; '.join(early) or 'none'}; "
+        f"steps 15 000-20 000: {'; '.join(late) or 'none'}"
+    )
+    if not early and late:
+        return v.Verdict(v.HOLDS, text)
+    if early and not late:
+        return v.Verdict(v.FAILS, text, "the α values differ early, not late")
+    return v.Verdict(v.INCONCLUSIVE, text, "they differ both early and late, or neither")
+
+
+def pb_12b_by_overlap(ev: Evidence) -> v.Verdict:
+    """PB-12b as first written: the per-α intervals overlap pairwise early, some pair not
+    late (`revisions`)."""
     early = {c: v.mean_interval(_col(ev, c, "rms_angle_2500_5000"))[1:] for c in ALPHAS}
     late = {c: v.mean_interval(_col(ev, c, "rms_angle_15000_20000"))[1:] for c in ALPHAS}
     text = f"α {list(ALPHAS.values())}: intervals apart early {_apart(early)}, late {_apart(late)}"

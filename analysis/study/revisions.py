@@ -324,3 +324,12 @@ for _id, _verdict in (
     ("CEM-19b", v.FAILS),
 ):
     recorded(_id, _verdict, "5e854fa^")
+
+
+# --- revised after the sixth reading (2026-11-29) ------------------------------------------
+
+
+@first("PB-12b")
+def pb_12b(ev: Evidence) -> v.Verdict:
+    """Was: alike early where the per-α intervals overlap pairwise."""
+    return chapter4.pb_12b_by_overlap(ev)

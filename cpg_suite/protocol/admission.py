@@ -131,8 +131,9 @@ def shown_name(name: str) -> str:
 def name_refusal(name: str, what: str = "its folder") -> str | None:
     """Why a folder's or file's name may not be on the board (None: it may): a character
     that is not printable (a newline, a tab, another control or format character, which
-    could forge or hide a line of the board's listing), or a seed number in digits other
-    than ASCII's.
+    could forge or hide a line of the board's listing), a letter outside ASCII or a space
+    at either end (a name that only looks like another's), or a seed number in digits
+    other than ASCII's.
 
     Args:
       name: The name (one path component).
@@ -150,6 +151,12 @@ def name_refusal(name: str, what: str = "its folder") -> str | None:
         return (
             f"{what}'s name {name!r} ends in a seed number that is not in ASCII digits: a "
             "run's name ends in seed<0-9...>"
+        )
+    if not name.isascii() or name != name.strip():
+        return (
+            f"{what}'s name {name!r} holds a letter outside ASCII or starts or ends with a "
+            "space: a name on the board is ASCII text without them (a lookalike, such as a "
+            "Cyrillic с for c or a trailing space, would read as another run's name)"
         )
     return None
 
@@ -676,6 +683,31 @@ def policy_refusal(path: str) -> str | None:
                 f"its {EXPORTED}'s {key!r} holds a value that is not finite (NaN or "
                 "infinity): a policy's arrays are finite numbers"
             )
+    return _forward_refusal(arrays)
+
+
+def _forward_refusal(arrays: dict) -> str | None:
+    """Why an exported policy's arrays are no policy the scorer can run (None: they are):
+    arrays that do not fit together (`exported.NumpyPolicy`), or no finite (1, 12) action
+    for one observation of the task's shapes, all zeros (its normalizer's std aside)."""
+    import cpg_suite  # the task's observation shapes (a policy is scored on them)
+
+    arrays = dict(arrays)
+    try:
+        policy = exported.NumpyPolicy(arrays, str(arrays.pop("action_space")))
+        spec = cpg_suite.load("darwin_walk").observation_spec()
+        observation = {k: np.zeros((1, *spec[k].shape)) for k in spec}
+        policy.reset_batch(1)
+        with np.errstate(all="ignore"):
+            action = np.asarray(policy.act_batch(observation))
+    except (ValueError, KeyError, IndexError, TypeError) as e:
+        return _one_line(f"its {EXPORTED} is no policy the scorer can run: {e}")
+    if action.shape != (1, 12) or not np.all(np.isfinite(action)):
+        return (
+            f"its {EXPORTED} answers an observation with a {action.shape} array"
+            f"{'' if np.all(np.isfinite(action)) else ' holding a value that is not finite'}, "
+            "not 12 finite leg actions"
+        )
     return None
 
 

@@ -1001,7 +1001,7 @@ def _check_run(run_dir: str, how: dict) -> tuple[list[str], str | None]:
     except (UntrustedCode, NotAdmitted):
         raise
     except Exception as e:  # the run's own failure (its policy, its files): this run only
-        problems = [f"could not be scored: {type(e).__name__}: {e}"]
+        problems = [f"could not be scored: {exported.one_line(f'{type(e).__name__}: {e}', 300)}"]
     try:
         after = admission.run_digest(run_dir)
     except (OSError, ValueError):
@@ -1368,15 +1368,42 @@ def verify(
             log(one_line(f"{status} {run_dir}" + "".join(f"; {p}" for p in problems)))
     total = len(chosen) + len(refused)
     if quick and not sample_trials:
+        others = _quick_others([d for d in shipped if d not in chosen], ledger, log)
         log(
             f"{total - failed} of {total} shipped runs reproduced bit for bit on --quick's "
             f"trials (the first {QUICK_SEEDS} test seeds a tier), {on_record} of them on "
-            "record as re-scored in full"
+            f"record as re-scored in full{others[0]}"
         )
-        return failed
+        return failed + others[1]
     what = f", {sample_trials} random trials each," if sample_trials else ""
     log(f"{total - failed} of {total} shipped runs{what} reproduced bit for bit")
     return failed
+
+
+def _quick_others(others: list[str], ledger: dict, log: Callable[[str], None]) -> tuple[str, int]:
+    """The runs --quick does not re-score (not the first of their configuration), each
+    compared with the ledger's full check only: a `DIFF` line for each whose files are not
+    those the ledger's full check re-scored; the final line's words on them, and how many
+    differ."""
+    if not others:
+        return "", 0
+    found = {}
+    for run_dir in sorted(others):
+        try:
+            digest = admission.run_digest(run_dir)
+        except (OSError, ValueError):
+            digest = None
+        found[run_dir] = _full_check_problems(run_dir, digest, ledger)
+        if found[run_dir]:
+            log(one_line(f"DIFF {run_dir}; not re-scored by --quick; {found[run_dir][0]}"))
+    differ = sum(bool(p) for p in found.values())
+    on_record = sum(p is None for p in found.values())
+    words = (
+        f"; {len(others)} other runs, not the first of their configuration, not re-scored by "
+        f"--quick ({on_record} on record in full with these files"
+        + (f", {differ} whose files differ: DIFF above)" if differ else ")")
+    )
+    return words, differ
 
 
 def _full_check_problems(run_dir: str, digest: str | None, ledger: dict) -> list[str] | None:

@@ -287,6 +287,7 @@ class NumpyPolicy:
             (np.asarray(arrays[f"kernel_{i}"], np.float64), np.asarray(arrays[f"bias_{i}"]))
             for i in range(n)
         ]
+        _check_layers(self.mean, self.std, self.layers)
         self.box = None  # the "normal" head's: [−1, 1]
         if "action_low" in arrays or "action_high" in arrays:  # both, or a KeyError
             self.box = tuple(
@@ -386,6 +387,31 @@ class NumpyPolicy:
         if self.cpg is None:
             return action[0]
         return residual.joint_actions(action, self.cpg, self._physics, darwin.CONTROL_TIMESTEP)[0]
+
+
+def _check_layers(mean: np.ndarray, std: np.ndarray, layers: list) -> None:
+    """That a policy's arrays fit together: a normalizer of one vector (mean and std alike),
+    each layer a matrix whose rows are the last one's outputs (the first's, the normalizer's
+    length) and a bias of its columns.
+
+    Raises:
+      ValueError: Naming the first array that does not fit (outside attack of 2026-11-29:
+        a 0-d mean or a kernel of 0 columns was admitted, then could not be scored).
+    """
+    if mean.ndim != 1 or mean.shape != std.shape or not mean.size:
+        raise ValueError(
+            f"the policy's normalizer has mean {mean.shape} and std {std.shape}: one vector each"
+        )
+    width = mean.shape[0]
+    for i, (kernel, bias) in enumerate(layers):
+        if kernel.ndim != 2 or kernel.shape[0] != width or not kernel.shape[1]:
+            raise ValueError(
+                f"the policy's kernel_{i} is {kernel.shape}, not ({width}, n > 0): it must take "
+                "the previous layer's outputs"
+            )
+        if bias.shape != (kernel.shape[1],):
+            raise ValueError(f"the policy's bias_{i} is {bias.shape}, not ({kernel.shape[1]},)")
+        width = kernel.shape[1]
 
 
 class ActionTable:
