@@ -107,13 +107,14 @@ def _add_score_card(dirpath: str, found: list[dict], skipped: list[str]) -> None
     )
 
 
-def walk_sorted(root: str) -> Iterator[tuple[str, list[str]]]:
+def walk_sorted(root: str) -> Iterator[tuple[str, list[str], list[str]]]:
     """`os.walk` in name order: the board's sums and bootstrap draws take the runs in an
-    order that does not depend on the file system's listing order (yields `dirpath` and
-    its sorted file names)."""
+    order that does not depend on the file system's listing order (yields `dirpath`, its
+    folder names, which `os.walk` enters unless they are links, and its file names,
+    sorted)."""
     for dirpath, dirnames, filenames in os.walk(root):
         dirnames.sort()
-        yield dirpath, sorted(filenames)
+        yield dirpath, dirnames, sorted(filenames)
 
 
 def find_runs(root: str) -> tuple[list[dict], list[str]]:
@@ -130,9 +131,7 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
     """
     found, skipped = [], []
     ledger = admission.read_ledger(ledger_path(root))
-    for dirpath, dirnames, filenames in os.walk(root):
-        dirnames.sort()  # name order, as `walk_sorted`
-        filenames = sorted(filenames)
+    for dirpath, dirnames, filenames in walk_sorted(root):
         for name in dirnames:  # os.walk lists a link to a folder here, and never enters it
             if os.path.islink(os.path.join(dirpath, name)):
                 _add_link(os.path.join(dirpath, name), root, found)

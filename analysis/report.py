@@ -401,7 +401,7 @@ def pole_angles(found: list[dict], out: str) -> str | None:
 def value_evolution(root: str, out: str) -> str | None:
     """Values of the six cycle states per iteration, value vs policy iteration."""
     rows = []
-    for dirpath, files in leaderboard.walk_sorted(root):
+    for dirpath, _, files in leaderboard.walk_sorted(root):
         if "fig4_4.csv" in files:
             rows = _read_csv(os.path.join(dirpath, "fig4_4.csv"))
             break

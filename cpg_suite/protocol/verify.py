@@ -1071,8 +1071,7 @@ def audit_runs(
     folders = run_folders(artifacts)
     if not folders:
         raise ValueError(f"no shipped runs under {artifacts}")
-    ledger = admission.ledger_beside(artifacts)
-    refused = admission.refusals(folders, ledger=ledger)
+    refused = admission.refusals(folders, ledger=admission.ledger_beside(artifacts))
     trusted = trusted_digests(trusted_list)
     chosen = [
         d for d in folders if d not in refused and code_refusal(d, trust_code, trusted) is None
