@@ -105,3 +105,22 @@ def test_the_gap_of_equal_distributions_is_consistent():
     assert audit.gap(pairs).verdict == "consistent"
     shifted = [({"t": c["t"] + 1.0}, a) for c, a in pairs]
     assert audit.gap(shifted).verdict == "card above audit"
+
+
+def test_a_run_that_cannot_be_audited_is_one_line_and_the_others_are_audited(tmp_path):
+    """A run whose policy fails while it is scored stopped the whole audit (a ValueError
+    became verify's usage error); now it is its own DIFF line, counted in the result."""
+    amplitudes = cpg.load_amplitudes(os.path.join(GAIT, "selected_params.json"))
+    gait = json.dumps({"amplitudes": dict(zip(cpg.AMPLITUDE_NAMES, amplitudes.tolist()))})
+    runs = tmp_path / "runs" / "mine" / "darwin_walk"
+    _run(runs / "a_seed0", "selected_params.json", gait)
+    broken = _run(runs / "b_seed0", "selected_params.json", gait)
+    (tmp_path / "runs" / "mine" / "darwin_walk" / "b_seed0" / "selected_params.json").write_text(
+        json.dumps({"amplitudes": {"nope": 1.0}})
+    )
+    how = {"threads": 1, "trust_code": False, "trusted": frozenset()}
+    seeds = audit.draw_seeds(2, entropy=1)
+    assert isinstance(verify._audited(broken, seeds, how), str)
+    assert isinstance(verify._audited(str(runs / "a_seed0"), seeds, how), tuple)
+    line = verify._audited(broken, seeds, how)
+    assert line.startswith("could not be audited: ") and "\n" not in line, line

@@ -390,3 +390,14 @@ def test_a_name_that_only_looks_like_another_is_refused(tmp_path, level, name):
     assert admitted == [] and len(refused) == 1, (admitted, refused)
     assert "outside ASCII or starts or ends with a space" in refused[0]["reason"]
     assert repr(name) in refused[0]["reason"] and run
+
+
+@pytest.mark.parametrize("name", ["K50_n0.8_e2", "K50_n0.8_e2_seed", "K50_n0.8_e2_seed0_copy", "0"])
+def test_a_run_whose_folder_names_no_seed_is_refused_in_one_line(tmp_path, name):
+    """A run folder must be `<configuration>_seed<N>`: the board counts a configuration's
+    seeds by its runs' names, and a seedless name was admitted as a configuration of its
+    own (a third outside attack's finding, 2026-11-29): a copy renamed so would be a
+    'configuration' beside the original's, one seed each."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", name)
+    reason = _board_refusal(run)
+    assert reason.startswith(f"its folder's name {name} does not end in seed<N>"), reason

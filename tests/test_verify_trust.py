@@ -129,6 +129,63 @@ def test_a_policy_that_stops_answering_is_stopped_at_its_deadline(tmp_path):
     assert policy._process.poll() is not None  # ended
 
 
+def test_a_policy_slow_on_every_step_is_stopped_at_its_total_budget(tmp_path):
+    """Each answer just inside the answer deadline: the answers' total budget ends it."""
+    code = textwrap.dedent(
+        """
+        import time
+
+        def make_policy():
+            def act(observation):
+                time.sleep(0.4)
+                return [0.0] * 12
+            return act
+        """
+    )
+    (tmp_path / "slow.py").write_text(code)
+    policy = sandbox.IsolatedPolicy(
+        str(tmp_path / "slow.py"), answer_seconds=1.0, total_seconds=2.0
+    )
+    policy.reset()
+    start = time.monotonic()
+    with pytest.raises(sandbox.PolicyFailed, match="of the 2 s all its answers may take"):
+        for _ in range(20):
+            policy(_observation())
+    assert time.monotonic() - start < 10
+    assert policy._process.poll() is not None
+
+
+def test_a_policy_that_stops_reading_cannot_block_the_scorer(tmp_path):
+    """A trial process that stops itself (SIGSTOP) once its trial has started reads
+    nothing more: an observation larger than a pipe holds blocked the scorer's write for
+    ever; the answer deadline covers the write too."""
+    code = textwrap.dedent(
+        """
+        import os, signal, threading
+
+        class Deaf:
+            def reset(self):
+                stop = lambda: os.kill(os.getpid(), signal.SIGSTOP)
+                threading.Timer(0.2, stop).start()
+
+            def __call__(self, observation):
+                return [0.0] * 12
+
+        def make_policy():
+            return Deaf()
+        """
+    )
+    (tmp_path / "deaf.py").write_text(code)
+    policy = sandbox.IsolatedPolicy(str(tmp_path / "deaf.py"), answer_seconds=2.0)
+    policy.reset()
+    time.sleep(1.0)
+    start = time.monotonic()
+    with pytest.raises(sandbox.PolicyFailed, match="took more than 2 s to answer"):
+        policy({"big": np.zeros(1 << 20)})  # 8 MiB: far more than a pipe holds
+    assert time.monotonic() - start < 20
+    assert policy._process.poll() is not None
+
+
 def test_one_line_escapes_what_could_start_a_line_of_its_own():
     assert verify.one_line("cem/K50_seed0; its files differ") == "cem/K50_seed0; its files differ"
     assert verify.one_line("a\nok   b\r\x1b[2K\u2028c") == "a\\nok   b\\r\\x1b[2K\\u2028c"
@@ -262,3 +319,21 @@ def test_submit_cli_scores_code_given_by_a_relative_path(tmp_path):
     assert out.returncode == 0, out.stderr[-800:]
     run_dir = tmp_path / "runs" / "my_controller" / "darwin_walk" / "v1_seed0"
     assert json.loads((run_dir / "summary.json").read_text())["test"]["tiers"]
+
+
+def test_audit_goes_on_past_a_run_whose_policy_fails(tmp_path):
+    """`verify --audit`: a policy that fails while it is audited stopped the whole audit
+    (its ValueError became verify's usage error, exit 2); now it is its own DIFF line,
+    counted in what the audit returns, and the other runs are audited."""
+    runs = tmp_path / "runs"
+    _copy(runs, "K50_n0.8_e2_seed0")
+    _as_code(_copy(runs, "code_seed1", OTHER_GAIT_RUN), "raise ValueError('gone')")
+    logged = []
+    flagged = verify.audit_runs(
+        str(runs), 1, log=logged.append, entropy=1, threads=1, trust_code=True
+    )
+    (line,) = [x for x in logged if x.startswith("DIFF ")]
+    assert "code_seed1; could not be audited: PolicyFailed" in line and "gone" in line
+    assert any(x.startswith("cem/darwin_walk/K50_n0.8_e2 (trained v2, 1 runs): ") for x in logged)
+    assert logged[-1].endswith("; 1 runs could not be audited (DIFF above)"), logged
+    assert flagged >= 1

@@ -802,6 +802,11 @@ def run_refusal(run_dir: str, version: int | None = None, name: str | None = Non
             "a submission's half-written folder: its process ended before the run was "
             "complete (delete it and submit again)"
         )
+    if not SEED_NAME.match(name):
+        return (
+            f"its folder's name {shown_name(name)} does not end in seed<N>: a run's folder is "
+            "<configuration>_seed<N> (the board counts a configuration's seeds by it)"
+        )
     reason = file_refusal(run_dir)
     if reason:
         return reason

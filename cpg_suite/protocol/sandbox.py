@@ -79,6 +79,11 @@ STARTUP_SECONDS = 120.0
 # Any other answer: a trial's start (a fork) or the actions for one control step, of one
 # trial or a tier's 50 at once (a batched MLP's forward pass: milliseconds).
 ANSWER_SECONDS = 30.0
+# All its answers together (a choice): the time the scorer waits on the policy over one
+# scoring, its physics not counted. An honest policy answering each of a full protocol's
+# ~200,000 control steps one at a time in a millisecond needs a few minutes; a policy that
+# answers each step just inside `ANSWER_SECONDS` would otherwise hold one run for weeks.
+TOTAL_SECONDS = 3600.0
 _ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 _BOOT = (
     "import sys; sys.path.insert(0, {root!r}); "
@@ -104,10 +109,22 @@ def _read_exactly(fd: int, n: int, deadline: float | None = None) -> bytes:
     return b"".join(chunks)
 
 
-def _send(fd: int, kind: bytes, payload: bytes = b"") -> None:
-    data = _HEADER.pack(kind, len(payload)) + payload
+def _send(fd: int, kind: bytes, payload: bytes = b"", deadline: float | None = None) -> None:
+    """Writes a message to fd. On a non-blocking fd (the scorer's end of the pipe to the
+    policy) it waits for room only until `deadline`: a child that stops reading cannot
+    block the scorer on a full pipe.
+
+    Raises:
+      TimeoutError: If the deadline passes first.
+    """
+    data = memoryview(_HEADER.pack(kind, len(payload)) + payload)
     while data:
-        data = data[os.write(fd, data) :]
+        try:
+            data = data[os.write(fd, data) :]
+        except BlockingIOError:
+            wait = None if deadline is None else _left(deadline)
+            if not select.select([], [fd], [], wait)[1]:
+                raise TimeoutError from None
 
 
 def _left(deadline: float) -> float:
@@ -170,11 +187,13 @@ class IsolatedPolicy:
       startup_seconds: How long its process may take to run the file and `make_policy()`.
       answer_seconds: How long it may take for any later answer (a trial's start, the
         actions of a control step).
+      total_seconds: How long all its later answers may take together, the scorer's own
+        work between them not counted.
 
     Raises:
       PolicyFailed: If the file is not a readable regular file, cannot be run, its
         `make_policy()` fails (with the last line the child printed on stderr), or it does
-        not answer in time.
+        not answer in time (or stops reading what it is sent).
     """
 
     def __init__(
@@ -182,11 +201,13 @@ class IsolatedPolicy:
         path: str,
         startup_seconds: float = STARTUP_SECONDS,
         answer_seconds: float = ANSWER_SECONDS,
+        total_seconds: float = TOTAL_SECONDS,
     ):
         path = os.path.abspath(path)  # the child runs in a folder of its own
         if not os.path.isfile(path) or not os.access(path, os.R_OK):
             raise PolicyFailed(f"the policy's file {path!r} is not a readable file")
-        self._answer_seconds = answer_seconds
+        self._answer_seconds, self._total = answer_seconds, total_seconds
+        self._total_left = total_seconds  # counted from the start-up's answer on
         keep_memory_private()
         self._folder = tempfile.TemporaryDirectory(prefix="policy-")
         environment = {k: os.environ[k] for k in _ENVIRONMENT if k in os.environ}
@@ -203,22 +224,44 @@ class IsolatedPolicy:
         self._drain = threading.Thread(target=self._read_stderr, daemon=True)
         self._drain.start()
         self._to, self._from = self._process.stdin.fileno(), self._process.stdout.fileno()
+        os.set_blocking(self._to, False)  # `_send` waits for room until a deadline
         self._in_trial = False
-        kind, payload = self._answer(startup_seconds, "to start")
+        kind, payload = self._ask(None, b"", startup_seconds, "to start")
+        self._total_left = total_seconds
         self.batched = payload == b"batch"
         if self.batched:
             self.reset_batch, self.act_batch = self._reset_batch, self._act_batch
 
-    def _answer(self, seconds: float | None = None, what: str = "to answer") -> tuple[bytes, bytes]:
-        seconds = self._answer_seconds if seconds is None else seconds
+    def _ask(
+        self,
+        kind: bytes | None,
+        payload: bytes = b"",
+        seconds: float | None = None,
+        what: str = "to answer",
+    ) -> tuple[bytes, bytes]:
+        """Sends a message (unless kind is None) and returns the policy's answer, within
+        `seconds` (the answer deadline) and what is left of its total budget.
+
+        Raises:
+          PolicyFailed: If it is late, fails, or answers something else than `_OK`.
+        """
+        start = time.monotonic()
+        if seconds is None:
+            seconds = min(self._answer_seconds, self._total_left)
+            if self._total_left < self._answer_seconds:
+                what = f"to answer (the last of the {self._total:g} s all its answers may take)"
         try:
-            kind, payload = _receive(self._from, time.monotonic() + seconds)
+            if kind is not None:
+                _send(self._to, kind, payload, start + seconds)
+            kind, payload = _receive(self._from, start + seconds)
         except TimeoutError:
             self.close()
             late = f"the policy's process took more than {seconds:g} s {what}"
             raise PolicyFailed(late) from None
         except (EOFError, OSError):
             kind, payload = _FAIL, b""
+        finally:
+            self._total_left -= time.monotonic() - start
         if kind != _OK:
             self.close()
             lines = b"".join(self._said).decode(errors="replace").strip().splitlines()
@@ -228,10 +271,8 @@ class IsolatedPolicy:
 
     def _begin(self, kind: bytes, payload: bytes = b"") -> None:
         if self._in_trial:
-            _send(self._to, _END)
-            self._answer()
-        _send(self._to, kind, payload)
-        self._answer()
+            self._ask(_END)
+        self._ask(kind, payload)
         self._in_trial = True
 
     def reset(self) -> None:
@@ -241,18 +282,16 @@ class IsolatedPolicy:
     def __call__(self, observation) -> np.ndarray:
         if not self._in_trial:
             self.reset()
-        _send(self._to, _ACT, encode_arrays(dict(observation)))
-        return self._action(1)[0]
+        return self._action(encode_arrays(dict(observation)), 1)[0]
 
     def _reset_batch(self, rows: int) -> None:
         self._begin(_BATCH, struct.pack("<I", rows))
 
     def _act_batch(self, observations: dict) -> np.ndarray:
-        _send(self._to, _ACT, encode_arrays(dict(observations)))
-        return self._action(None)
+        return self._action(encode_arrays(dict(observations)), None)
 
-    def _action(self, rows: int | None) -> np.ndarray:
-        _, payload = self._answer()
+    def _action(self, observations: bytes, rows: int | None) -> np.ndarray:
+        _, payload = self._ask(_ACT, observations)
         action = decode_arrays(payload)["action"]
         if action.dtype != np.float64 or action.ndim != 2 or (rows and action.shape[0] != rows):
             raise PolicyFailed(f"the policy answered a {action.dtype} {action.shape} array")

@@ -1040,6 +1040,17 @@ def audit_run(run_dir: str, seeds: list[int], how: dict) -> tuple[dict, dict]:
     return card, audit.scores(fresh)
 
 
+def _audited(run_dir: str, seeds: list[int], how: dict) -> tuple[dict, dict] | str:
+    """`audit_run`, or why the run could not be audited (one line: its policy failed, a
+    file could not be read): one run's failure does not stop the audit of the others."""
+    try:
+        return audit_run(run_dir, seeds, how)
+    except UntrustedCode:
+        raise
+    except Exception as e:
+        return f"could not be audited: {exported.one_line(f'{type(e).__name__}: {e}', 300)}"
+
+
 def audit_runs(
     artifacts: str,
     seeds: int,
@@ -1063,7 +1074,8 @@ def audit_runs(
       quick: Only the first run of each configuration (`_quick_sample`).
 
     Returns:
-      How many configurations score better on their card than on the audit.
+      How many configurations score better on their card than on the audit, plus how many
+      runs could not be audited (each its own line, `DIFF`).
 
     Raises:
       ValueError: If `artifacts` holds no run folder.
@@ -1084,12 +1096,15 @@ def audit_runs(
     with contextlib.ExitStack() as stack:
         if jobs > 1:
             pool = stack.enter_context(_pool(jobs, chosen, trust_code))
-            futures = {d: pool.submit(audit_run, d, drawn, how) for d in chosen}
+            futures = {d: pool.submit(_audited, d, drawn, how) for d in chosen}
             results = {d: futures[d].result() for d in chosen}
         else:
-            results = {d: audit_run(d, drawn, how) for d in chosen}
+            results = {d: _audited(d, drawn, how) for d in chosen}
+    failed = {d: r for d, r in results.items() if isinstance(r, str)}
+    for run_dir, why in failed.items():
+        log(one_line(f"DIFF {run_dir}; {why}"))
     groups: dict[tuple, list] = {}
-    for run_dir in chosen:
+    for run_dir in (d for d in chosen if d not in failed):
         key = (*admission.run_identity(run_dir), admission.trained_version(run_dir))
         groups.setdefault(key, []).append(results[run_dir])
     flagged = 0
@@ -1097,8 +1112,12 @@ def audit_runs(
         found = audit.gap(pairs)
         flagged += found.verdict == "card above audit"
         log(f"{method}/{task}/{config} (trained v{version}, {len(pairs)} runs): {found.text()}")
-    log(f"{flagged} of {len(groups)} configurations score better on their card than on the audit")
-    return flagged
+    unaudited = f"; {len(failed)} runs could not be audited (DIFF above)" if failed else ""
+    log(
+        f"{flagged} of {len(groups)} configurations score better on their card than on the "
+        f"audit{unaudited}"
+    )
+    return flagged + len(failed)
 
 
 def write_ledger(
