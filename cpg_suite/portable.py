@@ -473,10 +473,9 @@ def tanh(x) -> np.ndarray:
     """
     x = _floats(x)
     a = np.minimum(np.abs(x), 22.0)
-    large = 1.0 - 2.0 / (expm1(a + a) + 2.0)  # |x| ≥ 1
-    t = expm1(-(a + a))
-    small = -t / (t + 2.0)  # |x| < 1
-    out = np.where(a >= 1.0, large, small)
+    large = a >= 1.0  # 1 - 2 / (e^2a + 1); else -t / (t + 2) with t = e^-2a - 1
+    t = expm1(np.where(large, a + a, -(a + a)))  # one expm1 for both: element-wise
+    out = np.where(large, 1.0 - 2.0 / (t + 2.0), -t / (t + 2.0))
     out = np.where(a >= 22.0, 1.0, out)
     return np.where(np.isnan(x), x, np.copysign(out, x))
 

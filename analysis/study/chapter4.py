@@ -208,8 +208,12 @@ def cr_19(ev: Evidence) -> v.Verdict:
 @rule("CR-20")
 def cr_20(ev: Evidence) -> v.Verdict:
     t = tokic(ev)
-    differing, example = t["cells_with_differing_incoming_rewards"], t["reward_2_2_to_3_2"]
-    text = f"cells entered with differing rewards: {differing}; R((2,2)→(3,2)) = {example:g}"
+    differing, example = t["cells_with_differing_pinned_incoming_rewards"], t["reward_2_2_to_3_2"]
+    text = (
+        f"cells entered with differing pinned rewards: {differing} "
+        f"({t['cells_with_differing_incoming_rewards']} counting every entry); "
+        f"R((2,2)→(3,2)) = {example:g}"
+    )
     return _one(differing > 0 and example == 6, text)
 
 

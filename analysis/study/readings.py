@@ -126,7 +126,8 @@ SATURATED = (
 PRECONDITION = {
     "CPG-4": {
         "NAC-3": SATURATED,
-        "NAC-4b": SATURATED,
+        "NAC-4b": f"{SATURATED}; and on these runs the rule's own reading turns on α, which "
+        "the thesis does not give (its evidence: every α; a sixth reading, 2026-11-29)",
         "NAC-5a": SATURATED,
         "NAC-6": SATURATED,
         "CEM-14b": f"its 'unlike NAC' is NAC-3: {SATURATED}; its CEM half holds (D − D_hand "

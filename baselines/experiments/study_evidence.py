@@ -194,6 +194,9 @@ def tokic() -> dict:
     incoming: dict = {}
     for (_, dst), r in models.load_tokic_rewards().items():
         incoming.setdefault(dst, set()).add(r)
+    pinned: dict = {}
+    for (_, dst), r in models.load_tokic_rewards("pinned").items():
+        pinned.setdefault(dst, set()).add(r)
     return {
         "converged": bool(vi.converged),
         "cycle": [list(model.label(s)) for s in cycle.states],
@@ -218,6 +221,7 @@ def tokic() -> dict:
             float(q[a]) for a in range(model.n_actions) if model.allowed[at_10, a]
         ),
         "cells_with_differing_incoming_rewards": sum(len(r) > 1 for r in incoming.values()),
+        "cells_with_differing_pinned_incoming_rewards": sum(len(r) > 1 for r in pinned.values()),
         "reward_2_2_to_3_2": models.load_tokic_rewards()[((2, 2), (3, 2))],
     }
 

@@ -133,17 +133,24 @@ def grid_model(
     )
 
 
-def load_tokic_rewards() -> dict[tuple[tuple[int, int], tuple[int, int]], float]:
+def load_tokic_rewards(
+    status: str | None = None,
+) -> dict[tuple[tuple[int, int], tuple[int, int]], float]:
     """The reconstructed thesis Table 4.1 (Tokic et al. 2009), from the package data.
 
     Source: `cpg_suite/data/tokic_rewards.json` (see `cpg_suite/data/SOURCES.md`).
+
+    Args:
+      status: Only the entries of this status (`pinned`: fixed by the thesis' Tables A.2
+        and A.3 or its text; `inferred`; `unknown`: placeholders); None: every entry.
     """
     text = (
         importlib.resources.files("cpg_suite")
         .joinpath("data/tokic_rewards.json")
         .read_text(encoding="utf-8")
     )
-    table = json.loads(text)["rewards"]
+    data = json.loads(text)
+    table = {k: v for k, v in data["rewards"].items() if status in (None, data["status"][k])}
     out = {}
     for key, value in table.items():
         a, b = key.split("->")
