@@ -13,7 +13,7 @@ import os
 import subprocess
 import sys
 
-_CONTROLLED = ("NPY_DISABLE_CPU_FEATURES", "ATEN_CPU_CAPABILITY")
+_CONTROLLED = ("NPY_DISABLE_CPU_FEATURES", "ATEN_CPU_CAPABILITY", "OPENBLAS_CORETYPE")
 
 
 def cpu_flags() -> set[str]:
@@ -56,6 +56,27 @@ def variants(
         if kernel != "SkylakeX" or "avx512f" in cpu_flags():
             out[f"OpenBLAS {kernel}"] = {"OPENBLAS_CORETYPE": kernel}
     return out
+
+
+def machines() -> dict[str, dict[str, str]]:
+    """Other x86-64 CPUs as one environment each: every library at once takes the code
+    paths it takes there (native; an AVX2 CPU: NumPy without AVX-512, torch at AVX2,
+    OpenBLAS's Haswell kernels; a CPU without AVX2: NumPy and torch at their baseline,
+    OpenBLAS's Sandybridge kernels). Every setting of `variants` is in one of them, so a
+    whole-pipeline check (`verify --quick`) runs three times rather than once a variant.
+    """
+    single = variants(blas_kernels=())
+    avx2 = {
+        **single["NumPy without AVX-512"],
+        **single["torch at AVX2"],
+        "OPENBLAS_CORETYPE": "Haswell",
+    }
+    older = {
+        **single.get("NumPy without AVX2 and AVX-512", single["NumPy without AVX-512"]),
+        **single["torch at its default capability"],
+        "OPENBLAS_CORETYPE": "Sandybridge",
+    }
+    return {"native": {}, "as on an AVX2 CPU": avx2, "as on a CPU without AVX2": older}
 
 
 def environment(variant: dict[str, str]) -> dict[str, str]:

@@ -196,12 +196,17 @@ def make_policy():
 
 
 @pytest.mark.slow  # scores a coded policy on the whole protocol (200 trials of 16 s), ~80 s
-def test_submitted_code_runs_when_submitted_and_in_verify_only_with_trust_code(tmp_path):
+def test_submitted_code_runs_when_submitted_and_in_verify_only_with_trust_code(
+    tmp_path, monkeypatch
+):
+    """Also: the code given by a path relative to the working folder (as docs/submit.md
+    writes `--code=my_policy.py`; its process runs in a folder of its own)."""
     code = tmp_path / "my_policy.py"
     code.write_text(POLICY_CODE.format(amplitudes=list(cpg.PRESETS["hand_tuned"])))
     root = tmp_path / "runs"
     submission = submit.Submission(root=str(root), method="my_controller", seed=0)
-    run_dir = submit.submit_code(str(code), submission)
+    monkeypatch.chdir(tmp_path)
+    run_dir = submit.submit_code("my_policy.py", submission)
     assert sorted(os.listdir(run_dir)) == [
         "config.json",
         "executed",  # written by the code while it was scored: it ran
