@@ -63,7 +63,7 @@ def machines() -> dict[str, dict[str, str]]:
     paths it takes there (native; an AVX2 CPU: NumPy without AVX-512, torch at AVX2,
     OpenBLAS's Haswell kernels; a CPU without AVX2: NumPy and torch at their baseline,
     OpenBLAS's Sandybridge kernels). Every setting of `variants` is in one of them, so a
-    whole-pipeline check (`verify --quick`) runs three times rather than once a variant.
+    whole-pipeline check (`verify --quick`) runs once a machine rather than once a variant.
     """
     single = variants(blas_kernels=())
     avx2 = {

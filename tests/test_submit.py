@@ -204,9 +204,9 @@ def test_submitted_code_runs_when_submitted_and_in_verify_only_with_trust_code(
     code = tmp_path / "my_policy.py"
     code.write_text(POLICY_CODE.format(amplitudes=list(cpg.PRESETS["hand_tuned"])))
     root = tmp_path / "runs"
-    submission = submit.Submission(root=str(root), method="my_controller", seed=0)
-    monkeypatch.chdir(tmp_path)
-    run_dir = submit.submit_code("my_policy.py", submission)
+    submission = submit.Submission(root="runs", method="my_controller", seed=0)
+    monkeypatch.chdir(tmp_path)  # the code and the run tree both relative to it
+    run_dir = os.path.abspath(submit.submit_code("my_policy.py", submission))
     assert sorted(os.listdir(run_dir)) == [
         "config.json",
         "executed",  # written by the code while it was scored: it ran

@@ -216,7 +216,7 @@ def test_a_card_extends_an_older_one_only_by_new_keys():
 def test_a_shipped_reference_run_reproduces_quickly(configuration):
     """A shipped CEM run and a PPO-on-MJX run (the first: `cpg`, its CPG inside the policy's
     loop), re-scored on their first test seeds here; the slow tier does every configuration
-    under every CPU variant."""
+    as on two other CPUs (`cpu_variants.machines`)."""
     artifacts = os.path.join(ROOT, verify.ARTIFACTS)
     shipped = verify.shipped_runs(os.path.join(artifacts, configuration))
     assert shipped, f"results/protocol/runs ships no {configuration} run"
@@ -228,8 +228,8 @@ def test_the_reference_artifacts_reproduce_under_every_cpu_variant():
     """`verify --quick` as on two other CPUs (`cpu_variants.machines`: an AVX2 one and one
     without AVX2, every library's variant at once), side by side on one evaluator thread
     each. Natively, every run is re-scored by test_board_sample (a sample of its trials)
-    and the fast tier (--quick's trials of two runs); each library's variants one at a
-    time by test_portable."""
+    and the fast tier (--quick's trials of two runs); NumPy's and OpenBLAS's variants one
+    at a time by test_portable (torch's only here, within the two machines)."""
     artifacts = os.path.join(ROOT, verify.ARTIFACTS)
     command = ["-m", "cpg_suite.protocol.verify", "--quick", "--threads=1", "--jobs=1"]
     other = {k: v for k, v in cpu_variants.machines().items() if v}

@@ -3,6 +3,7 @@ that is code given by a relative path, one that hangs, one that fails with a mes
 to look like verify's own lines, a folder name with a newline, an edited run that only
 --quick re-scores, and a gait file that is a symbolic link at shipping."""
 
+import gc
 import os
 import shutil
 import textwrap
@@ -126,8 +127,9 @@ def test_a_policy_that_stops_answering_is_stopped_at_its_deadline(tmp_path):
     assert policy._process.poll() is not None  # ended
 
 
-def test_a_policy_slow_on_every_step_is_stopped_at_its_total_budget(tmp_path):
-    """Each answer just inside the answer deadline: the answers' total budget ends it."""
+def test_a_policy_slow_on_every_step_is_stopped_at_its_trial_budget(tmp_path):
+    """Each answer just inside the answer deadline: the trial's budget for all its answers
+    ends it; a batch of trials gets one budget a trial."""
     code = textwrap.dedent(
         """
         import time
@@ -141,15 +143,39 @@ def test_a_policy_slow_on_every_step_is_stopped_at_its_total_budget(tmp_path):
     )
     (tmp_path / "slow.py").write_text(code)
     policy = sandbox.IsolatedPolicy(
-        str(tmp_path / "slow.py"), answer_seconds=1.0, total_seconds=2.0
+        str(tmp_path / "slow.py"), answer_seconds=1.0, trial_seconds=2.0
     )
     policy.reset()
     start = time.monotonic()
-    with pytest.raises(sandbox.PolicyFailed, match="of the 2 s all its answers may take"):
+    with pytest.raises(sandbox.PolicyFailed, match="its 2 s of answers for the trial spent"):
         for _ in range(20):
             policy(_observation())
     assert time.monotonic() - start < 10
     assert policy._process.poll() is not None
+    honest = sandbox.IsolatedPolicy(
+        str(tmp_path / "slow.py"), answer_seconds=1.0, trial_seconds=2.0
+    )
+    try:
+        for _ in range(3):  # 1.2 s of answers a trial, 3.6 s in all: each trial its budget
+            honest.reset()
+            for _ in range(3):
+                honest(_observation())
+    finally:
+        honest.close()
+
+
+def test_a_dropped_policy_ends_its_process(tmp_path):
+    """Nothing holds an `IsolatedPolicy` but its user (its stderr reader holds no reference):
+    dropped, it is collected and its process ended; `close` twice is harmless."""
+    _policy_file(tmp_path / "p.py")
+    policy = sandbox.IsolatedPolicy(str(tmp_path / "p.py"))
+    policy.close()
+    policy.close()
+    policy = sandbox.IsolatedPolicy(str(tmp_path / "p.py"))
+    process = policy._process
+    del policy
+    gc.collect()
+    assert process.wait(timeout=20) is not None
 
 
 def test_a_policy_that_stops_reading_cannot_block_the_scorer(tmp_path):
@@ -311,4 +337,5 @@ def test_audit_goes_on_past_a_run_whose_policy_fails(tmp_path):
     assert "code_seed1; could not be audited: PolicyFailed" in line and "gone" in line
     assert any(x.startswith("cem/darwin_walk/K50_n0.8_e2 (trained v2, 1 runs): ") for x in logged)
     assert logged[-1].endswith("; 1 runs could not be audited (DIFF above)"), logged
-    assert flagged >= 1
+    above = sum("card above audit" in x for x in logged[:-1])
+    assert flagged == 1 + above

@@ -459,7 +459,7 @@ def nac_4a(ev: Evidence) -> v.Verdict:
     found = v.majority(flags, f"max |F| per window, first → last quarter: {shown}")
     try:  # beside it, the α at which NAC-4b is judged (a sixth reader's request)
         point = scaled(ev)
-        config = f"fixes_alpha{point['alpha']:g}_epsA{point['eps_a']:g}"
+        config = point_name("fixes", point["alpha"], point["eps_a"])
         grows, values = _f_grows(ev, config)
     except MissingEvidence:
         return found

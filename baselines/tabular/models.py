@@ -143,6 +143,9 @@ def load_tokic_rewards(
     Args:
       status: Only the entries of this status (`pinned`: fixed by the thesis' Tables A.2
         and A.3 or its text; `inferred`; `unknown`: placeholders); None: every entry.
+
+    Raises:
+      ValueError: If `status` is none of those.
     """
     text = (
         importlib.resources.files("cpg_suite")
@@ -150,6 +153,8 @@ def load_tokic_rewards(
         .read_text(encoding="utf-8")
     )
     data = json.loads(text)
+    if status is not None and status not in data["status_meaning"]:
+        raise ValueError(f"status must be one of {', '.join(data['status_meaning'])}: {status!r}")
     table = {k: v for k, v in data["rewards"].items() if status in (None, data["status"][k])}
     out = {}
     for key, value in table.items():

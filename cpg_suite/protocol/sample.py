@@ -12,10 +12,11 @@ Its score, the success-weighted distance, is their mean, and admission refuses a
 that claims more than `MAX_TRIAL_DISTANCE_M`; so moving the card by δ metres takes at
 least m = ⌈δ N / MAX_TRIAL_DISTANCE_M⌉ edited trials, and one check of K trials misses
 every one of them with probability C(N − m, K) / C(N, K) (`detection_probability`). At
-K = 20: δ = 0.5 m (m ≥ 4) is caught with probability ≥ 0.35 per check, δ = 1 m (m ≥ 7)
-≥ 0.53, δ = 2 m (m ≥ 13) ≥ 0.76; the forgery that added 0.5 m to every trial that did
-not fail (m ≈ 150) with probability > 1 − 1e-13. Each check draws anew, so r checks miss
-with the r-th power of that: CI checks every admitted run this way on every run.
+K = 20: δ = 0.5 m (m ≥ 4) is caught with probability ≥ 0.34 per check, δ = 1 m (m ≥ 7)
+≥ 0.52, δ = 2 m (m ≥ 13) ≥ 0.75 (K = 10, CI's: ≥ 0.18, 0.30, 0.49); the forgery
+that added 0.5 m to every trial that did not fail (m ≈ 150) with probability > 1 − 1e-13.
+Each check draws anew, so r checks miss with the r-th power of that: CI checks every
+admitted run this way on every run.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ import numpy as np
 # m, a version-1 joints policy exploiting the model, and 9 times the real robot's 0.214
 # m/s, docs/darwin_op_model.md). Admission refuses a trial beyond it.
 MAX_TRIAL_DISTANCE_M = 32.0
-DEFAULT_TRIALS = 20  # trials per run in a sampled check (CI's)
+DEFAULT_TRIALS = 20  # trials per run in a sampled check (`verify --sample`'s; CI's: 10)
 
 
 def fresh_entropy() -> int:

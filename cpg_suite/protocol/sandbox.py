@@ -79,11 +79,12 @@ STARTUP_SECONDS = 120.0
 # Any other answer: a trial's start (a fork) or the actions for one control step, of one
 # trial or a tier's 50 at once (a batched MLP's forward pass: milliseconds).
 ANSWER_SECONDS = 30.0
-# All its answers together (a choice): the time the scorer waits on the policy over one
-# scoring, its physics not counted. An honest policy answering each of a full protocol's
-# ~200,000 control steps one at a time in a millisecond needs a few minutes; a policy that
-# answers each step just inside `ANSWER_SECONDS` would otherwise hold one run for weeks.
-TOTAL_SECONDS = 3600.0
+# All its answers over one trial together (a choice), the scorer's physics not counted: a
+# batch of n trials stepped together gets n times as much. An honest policy answering each
+# of a trial's 1000 control steps in a millisecond (a small MLP in NumPy or torch) needs
+# about 1 s; 60 s is 60 ms a step on average. Without it a policy answering each step just
+# inside `ANSWER_SECONDS` would hold one trial for 8 hours, a run of 200 for weeks.
+TRIAL_SECONDS = 60.0
 _ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 _BOOT = (
     "import sys; sys.path.insert(0, {root!r}); "
@@ -123,7 +124,7 @@ def _send(fd: int, kind: bytes, payload: bytes = b"", deadline: float | None = N
             data = data[os.write(fd, data) :]
         except BlockingIOError:
             wait = None if deadline is None else _left(deadline)
-            if not select.select([], [fd], [], wait)[1]:
+            if not wait and deadline is not None or not select.select([], [fd], [], wait)[1]:
                 raise TimeoutError from None
 
 
@@ -187,8 +188,8 @@ class IsolatedPolicy:
       startup_seconds: How long its process may take to run the file and `make_policy()`.
       answer_seconds: How long it may take for any later answer (a trial's start, the
         actions of a control step).
-      total_seconds: How long all its later answers may take together, the scorer's own
-        work between them not counted.
+      trial_seconds: How long all its answers over one trial may take together (n times
+        as long for a batch of n trials), the scorer's own work between them not counted.
 
     Raises:
       PolicyFailed: If the file is not a readable regular file, cannot be run, its
@@ -201,13 +202,14 @@ class IsolatedPolicy:
         path: str,
         startup_seconds: float = STARTUP_SECONDS,
         answer_seconds: float = ANSWER_SECONDS,
-        total_seconds: float = TOTAL_SECONDS,
+        trial_seconds: float = TRIAL_SECONDS,
     ):
         path = os.path.abspath(path)  # the child runs in a folder of its own
         if not os.path.isfile(path) or not os.access(path, os.R_OK):
             raise PolicyFailed(f"the policy's file {path!r} is not a readable file")
-        self._answer_seconds, self._total = answer_seconds, total_seconds
-        self._total_left = total_seconds  # counted from the start-up's answer on
+        self._answer_seconds, self._trial_seconds = answer_seconds, trial_seconds
+        self._budget = self._left = float("inf")  # a trial's (`_begin`); none at start-up
+        self._closed = False
         keep_memory_private()
         self._folder = tempfile.TemporaryDirectory(prefix="policy-")
         environment = {k: os.environ[k] for k in _ENVIRONMENT if k in os.environ}
@@ -221,13 +223,14 @@ class IsolatedPolicy:
             start_new_session=True,  # its process group: `close` ends every process in it
         )
         self._said = collections.deque(maxlen=64)  # the last chunks of its stderr
-        self._drain = threading.Thread(target=self._read_stderr, daemon=True)
+        self._drain = threading.Thread(  # not a method: the thread holds no `self`
+            target=_read_stderr, args=(self._process.stderr.fileno(), self._said), daemon=True
+        )
         self._drain.start()
         self._to, self._from = self._process.stdin.fileno(), self._process.stdout.fileno()
         os.set_blocking(self._to, False)  # `_send` waits for room until a deadline
         self._in_trial = False
         kind, payload = self._ask(None, b"", startup_seconds, "to start")
-        self._total_left = total_seconds
         self.batched = payload == b"batch"
         if self.batched:
             self.reset_batch, self.act_batch = self._reset_batch, self._act_batch
@@ -247,9 +250,9 @@ class IsolatedPolicy:
         """
         start = time.monotonic()
         if seconds is None:
-            seconds = min(self._answer_seconds, self._total_left)
-            if self._total_left < self._answer_seconds:
-                what = f"to answer (the last of the {self._total:g} s all its answers may take)"
+            seconds = max(0.0, min(self._answer_seconds, self._left))
+            if self._left < self._answer_seconds:
+                what = f"to answer (its {self._budget:g} s of answers for the trial spent)"
         try:
             if kind is not None:
                 _send(self._to, kind, payload, start + seconds)
@@ -261,7 +264,7 @@ class IsolatedPolicy:
         except (EOFError, OSError):
             kind, payload = _FAIL, b""
         finally:
-            self._total_left -= time.monotonic() - start
+            self._left -= time.monotonic() - start
         if kind != _OK:
             self.close()
             lines = b"".join(self._said).decode(errors="replace").strip().splitlines()
@@ -269,9 +272,10 @@ class IsolatedPolicy:
             raise PolicyFailed(f"the policy's process failed: {said}")
         return kind, payload
 
-    def _begin(self, kind: bytes, payload: bytes = b"") -> None:
-        if self._in_trial:
-            self._ask(_END)
+    def _begin(self, kind: bytes, payload: bytes = b"", trials: int = 1) -> None:
+        if self._in_trial:  # its answer runs no policy code: the plain deadline
+            self._ask(_END, b"", self._answer_seconds)
+        self._budget = self._left = self._trial_seconds * trials
         self._ask(kind, payload)
         self._in_trial = True
 
@@ -285,7 +289,7 @@ class IsolatedPolicy:
         return self._action(encode_arrays(dict(observation)), 1)[0]
 
     def _reset_batch(self, rows: int) -> None:
-        self._begin(_BATCH, struct.pack("<I", rows))
+        self._begin(_BATCH, struct.pack("<I", rows), rows)
 
     def _act_batch(self, observations: dict) -> np.ndarray:
         return self._action(encode_arrays(dict(observations)), None)
@@ -301,16 +305,12 @@ class IsolatedPolicy:
         """The order the scorer runs n trials (or tiers) in: drawn afresh each time."""
         return np.random.default_rng().permutation(n)
 
-    def _read_stderr(self) -> None:
-        # `os.read` on the descriptor: a process that left the group may hold the pipe open
-        # for ever, and this thread then never returns; it holds no lock `close` needs.
-        fd = self._process.stderr.fileno()
-        for chunk in iter(lambda: os.read(fd, 4096), b""):
-            self._said.append(chunk)
-
     def close(self) -> None:
         """Ends the policy's process and every process of its group (its trials, and what
-        it started without leaving the group)."""
+        it started without leaving the group). Once: its process id may be reused after."""
+        if self._closed:
+            return
+        self._closed = True
         try:
             os.killpg(self._process.pid, signal.SIGKILL)
         except (ProcessLookupError, PermissionError):
@@ -332,6 +332,17 @@ class IsolatedPolicy:
 
 
 _PR_SET_DUMPABLE = 4  # prctl(2), linux/prctl.h
+
+
+def _read_stderr(fd: int, said: collections.deque) -> None:
+    # `os.read` on the descriptor: a process that left the group may hold the pipe open
+    # for ever, and this thread then never returns; it holds no lock `close` needs, and no
+    # reference to its `IsolatedPolicy` (which `__del__` then closes when it is dropped).
+    try:
+        for chunk in iter(lambda: os.read(fd, 4096), b""):
+            said.append(chunk)
+    except OSError:
+        pass
 
 
 def keep_memory_private() -> None:

@@ -2,7 +2,7 @@ r"""Shipped leaderboard artifacts: make them from run directories, and re-score 
 
   python -m cpg_suite.protocol.verify                      # every shipped run, bit for bit
   python -m cpg_suite.protocol.verify --quick              # the code's check, about 3 minutes
-  python -m cpg_suite.protocol.verify --sample=20          # 20 trials a run, drawn afresh (CI)
+  python -m cpg_suite.protocol.verify --sample=20          # 20 trials a run, drawn afresh (CI: 10)
   python -m cpg_suite.protocol.verify --audit=10           # every run on 10 fresh seeds a tier
   python -m cpg_suite.protocol.verify --record=results/protocol/rescored.csv  # the ledger
   python -m cpg_suite.protocol.verify --jobs=4             # four runs at a time (default 2)
@@ -300,8 +300,20 @@ def score_run(
     policy = shipped_policy(run_dir, trust_code, trusted)
     if policy is None:
         return score.score_gait_trials(gait_params(run_dir, settings.controller), settings)
-    with policy_threads(run_dir):
+    with policy_threads(run_dir), _closed_after(policy):
         return score.score_policy_trials(policy, settings)
+
+
+@contextlib.contextmanager
+def _closed_after(policy):
+    """Closes a policy that has a process of its own (`sandbox.IsolatedPolicy`) when its
+    scoring ends, however it ends: its process does not outlive the run's check."""
+    try:
+        yield
+    finally:
+        close = getattr(policy, "close", None)
+        if callable(close):
+            close()
 
 
 def shipped_policy(
@@ -986,7 +998,7 @@ def seed_trials(
         settings = run_settings(run_dir, threads=threads)
     policy = shipped_policy(run_dir, trust_code, trusted)
     artifact = gait_params(run_dir, settings.controller) if policy is None else policy
-    with policy_threads(run_dir):
+    with policy_threads(run_dir), _closed_after(policy):
         return score.seed_trials(artifact, settings, choose(settings.tiers))
 
 
@@ -1249,7 +1261,7 @@ def _score_run_under(
     if policy is None:
         params = gait_params(run_dir, settings_list[0].controller)
         return score.cards_and_trials(params, settings_list)
-    with policy_threads(run_dir):
+    with policy_threads(run_dir), _closed_after(policy):
         return score.cards_and_trials(policy, settings_list)
 
 
