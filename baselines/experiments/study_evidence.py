@@ -156,6 +156,14 @@ def tokic_alg41(gamma: float = 0.9) -> list[dict]:
     return found
 
 
+def _differing(rewards: dict) -> int:
+    """How many cells are entered with differing rewards (from different neighbours)."""
+    incoming: dict = {}
+    for (_, dst), r in rewards.items():
+        incoming.setdefault(dst, set()).add(r)
+    return sum(len(r) > 1 for r in incoming.values())
+
+
 def tokic() -> dict:
     """Value and policy iteration on the Tokic model: what claims CR-1 to CR-5, CR-18 to
     CR-20 and PB-2b measure."""
@@ -191,12 +199,6 @@ def tokic() -> dict:
     second = model.intended_successor(first, int(planning.greedy_policy(model, two[1], 0.9)[first]))
     at_10 = models.grid_index(1, 0)
     q = planning.action_values(model, two[1], 0.9)[at_10]
-    incoming: dict = {}
-    for (_, dst), r in models.load_tokic_rewards().items():
-        incoming.setdefault(dst, set()).add(r)
-    pinned: dict = {}
-    for (_, dst), r in models.load_tokic_rewards("pinned").items():
-        pinned.setdefault(dst, set()).add(r)
     return {
         "converged": bool(vi.converged),
         "cycle": [list(model.label(s)) for s in cycle.states],
@@ -220,8 +222,10 @@ def tokic() -> dict:
         "action_values_at_1_0_sweep2": sorted(
             float(q[a]) for a in range(model.n_actions) if model.allowed[at_10, a]
         ),
-        "cells_with_differing_incoming_rewards": sum(len(r) > 1 for r in incoming.values()),
-        "cells_with_differing_pinned_incoming_rewards": sum(len(r) > 1 for r in pinned.values()),
+        "cells_with_differing_incoming_rewards": _differing(models.load_tokic_rewards()),
+        "cells_with_differing_pinned_incoming_rewards": _differing(
+            models.load_tokic_rewards("pinned")
+        ),
         "reward_2_2_to_3_2": models.load_tokic_rewards()[((2, 2), (3, 2))],
     }
 

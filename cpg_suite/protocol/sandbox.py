@@ -124,7 +124,7 @@ def _send(fd: int, kind: bytes, payload: bytes = b"", deadline: float | None = N
             data = data[os.write(fd, data) :]
         except BlockingIOError:
             wait = None if deadline is None else _left(deadline)
-            if not wait and deadline is not None or not select.select([], [fd], [], wait)[1]:
+            if wait == 0.0 or not select.select([], [fd], [], wait)[1]:
                 raise TimeoutError from None
 
 
@@ -243,7 +243,7 @@ class IsolatedPolicy:
         what: str = "to answer",
     ) -> tuple[bytes, bytes]:
         """Sends a message (unless kind is None) and returns the policy's answer, within
-        `seconds` (the answer deadline) and what is left of its total budget.
+        `seconds` (the answer deadline) and what is left of the trial's budget.
 
         Raises:
           PolicyFailed: If it is late, fails, or answers something else than `_OK`.
