@@ -161,7 +161,7 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
         config_path = os.path.join(dirpath, "config.json")
         summary = _with_given_budget(summary, config_path)
         match = _SEED.match(run_name)
-        config = (match["config"] or "default") if match else run_name
+        config = match["config"] if match else run_name
         seed = int(match["seed"]) if match else None
         found.append(
             {
@@ -197,7 +197,7 @@ def _add_incomplete(dirpath: str, found: list[dict]) -> None:
         {
             "method": parts[-3],
             "task": parts[-2],
-            "config": (match["config"] or "default") if match else parts[-1],
+            "config": match["config"] if match else parts[-1],
             "seed": int(match["seed"]) if match else None,
             "summary": {},
             "dir": dirpath,
@@ -226,7 +226,7 @@ def _add_link(path: str, root: str, found: list[dict]) -> None:
         {
             "method": method,
             "task": task,
-            "config": (match["config"] or "default") if match else run_name,
+            "config": match["config"] if match else run_name,
             "seed": int(match["seed"]) if match else None,
             "summary": {},
             "dir": path,

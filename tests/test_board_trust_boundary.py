@@ -392,12 +392,26 @@ def test_a_name_that_only_looks_like_another_is_refused(tmp_path, level, name):
     assert repr(name) in refused[0]["reason"] and run
 
 
-@pytest.mark.parametrize("name", ["K50_n0.8_e2", "K50_n0.8_e2_seed", "K50_n0.8_e2_seed0_copy", "0"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "K50_n0.8_e2",
+        "K50_n0.8_e2_seed",
+        "K50_n0.8_e2_seed0_copy",
+        "0",
+        "seed0",  # no configuration (was read as "default")
+        "_seed0",
+        "K50_n0.8_e2seed0",  # no underscore (was configuration "K50_n0.8_e2")
+        "K50seed1",
+        "_seed",
+    ],
+)
 def test_a_run_whose_folder_names_no_seed_is_refused_in_one_line(tmp_path, name):
-    """A run folder must be `<configuration>_seed<N>`: the board counts a configuration's
-    seeds by its runs' names, and a seedless name was admitted as a configuration of its
-    own (a third outside attack's finding, 2026-11-29): a copy renamed so would be a
-    'configuration' beside the original's, one seed each."""
+    """A run folder must be `<configuration>_seed<N>`, the configuration not empty: the
+    board counts a configuration's seeds by its runs' names, and a seedless name was
+    admitted as a configuration of its own (a third outside attack's finding, 2026-11-29):
+    a copy renamed so would be a 'configuration' beside the original's, one seed each
+    (`seed0` and `_seed0` as "default", `K50seed0` as "K50": a fourth reading's finding)."""
     run = _copy(tmp_path, GAIT_RUN, "cem", name)
     reason = _board_refusal(run)
-    assert reason.startswith(f"its folder's name {name} does not end in seed<N>"), reason
+    assert reason.startswith(f"its folder's name {name} is not <configuration>_seed<N>"), reason

@@ -107,10 +107,12 @@ BOARD_MEASURES = (
     "heel_strike_share",
 )
 IN_SAMPLE = copies.IN_SAMPLE  # a gait run's in-sample best: its gait and training record
-# A run folder's name: `<config>_seed<S>` (the configuration's name less its seed), the
-# seed in ASCII digits only (`\d` would read `seed٠` or `seed１` as seeds 0 and 1).
-SEED_NAME = re.compile(r"^(?P<config>.*?)_?seed(?P<seed>[0-9]+)$")
-# A name that ends in `seed` and digits of any script: refused unless `SEED_NAME` reads it.
+# A run folder's name: `<config>_seed<S>`, the configuration's name (not empty) less its
+# seed, the seed in ASCII digits only (`\d` would read `seed٠` or `seed１` as seeds 0 and
+# 1). `seed0`, `_seed0` or `K50seed0` name no configuration: a copy renamed so was once a
+# configuration of its own ("default" or "K50"), one seed each.
+SEED_NAME = re.compile(r"^(?P<config>.+)_seed(?P<seed>[0-9]+)$")
+# A name that ends in `seed` and digits of any script, some not ASCII: always refused.
 _ANY_DIGIT_SEED = re.compile(r"seed\d+$")
 
 
@@ -147,7 +149,8 @@ def name_refusal(name: str, what: str = "its folder") -> str | None:
             f"{what}'s name {name!r} holds a control or other non-printable character: a "
             "name on the board is printable text"
         )
-    if _ANY_DIGIT_SEED.search(name) and not SEED_NAME.match(name):
+    seed = _ANY_DIGIT_SEED.search(name)
+    if seed and not seed.group().isascii():
         return (
             f"{what}'s name {name!r} ends in a seed number that is not in ASCII digits: a "
             "run's name ends in seed<0-9...>"
@@ -804,8 +807,9 @@ def run_refusal(run_dir: str, version: int | None = None, name: str | None = Non
         )
     if not SEED_NAME.match(name):
         return (
-            f"its folder's name {shown_name(name)} does not end in seed<N>: a run's folder is "
-            "<configuration>_seed<N> (the board counts a configuration's seeds by it)"
+            f"its folder's name {shown_name(name)} is not <configuration>_seed<N>: a run's "
+            "folder names its configuration, then _seed and the seed in digits (the board "
+            "counts a configuration's seeds by it)"
         )
     reason = file_refusal(run_dir)
     if reason:
@@ -1245,7 +1249,7 @@ def run_identity(run_dir: str) -> tuple[str, str, str]:
     """A run folder's method, training task and configuration (its name less the seed)."""
     parts = os.path.normpath(os.path.abspath(run_dir)).split(os.sep)
     match = SEED_NAME.match(parts[-1])
-    config = (match["config"] or "default") if match else parts[-1]
+    config = match["config"] if match else parts[-1]
     return parts[-3], parts[-2], config
 
 
