@@ -68,7 +68,10 @@ _FEEDBACK_K, _FEEDBACK_SEEDS, _FEEDBACK_TIER = 50, (0, 1), "darwin_walk_randomiz
 def _paired(ours, raw, repeats: int, now) -> tuple[float, float]:
     """Best-of-`repeats` seconds of `ours()` and of `raw()` on the clock `now`, the two
     timed in turn (ours, raw, ours, raw, ...) so that a slow spell of a shared machine falls
-    on both sides alike instead of on one side's block of timings."""
+    on both sides alike instead of on one side's block of timings. A measure other than a
+    clock (`bench_instructions.Counts`: instructions) pairs the two itself."""
+    if hasattr(now, "paired"):
+        return now.paired(ours, raw)
     best = [np.inf, np.inf]
     for _ in range(repeats):
         for side, fn in enumerate((ours, raw)):
@@ -269,10 +272,11 @@ def ratios(
       steps: Control steps per env timing and per trial (the vector env: a quarter).
       repeats: Timings per figure (the best is kept).
       threads: Threads of the vector env, the evaluator, scoring and their rollouts.
-      clock: "cpu" (the process's CPU time) or "wall".
+      clock: "cpu" (the process's CPU time) or "wall", or a measure that pairs the two
+        sides itself (`bench_instructions.Counts`).
       tiers: The DARwIn-OP tiers whose `env.step` is timed.
     """
-    now = CLOCKS[clock]
+    now = CLOCKS[clock] if isinstance(clock, str) else clock
     if "env" in paths:
         for task_id in tiers:
             yield f"env.step {task_id}", *env_step(task_id, steps, repeats, now)
