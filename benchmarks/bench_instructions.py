@@ -35,6 +35,7 @@ if __name__ == "__main__":  # this program never renders: no OpenGL backend, no 
 import collections
 import dataclasses
 import functools
+import json
 import os
 import re
 import shutil
@@ -42,8 +43,11 @@ import subprocess
 import sys
 import tempfile
 
-import bench_hot_paths
 from absl import flags
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # as bench_step_profile's
+
+import bench_hot_paths
 
 from cpg_suite import cli
 
@@ -182,51 +186,80 @@ class InstructionSettings:
         object.__setattr__(self, "tiers", tiers)
 
 
-def counted_ratios(settings: InstructionSettings, prefix: str):
-    """Yields `(path, ours, raw, (ours' counts, raw's counts))`, ours and raw in physics
-    steps per instruction; run under callgrind (`main` starts it)."""
-    counts = Counts(prefix)
+def _counted_rows(settings: InstructionSettings, prefix: str) -> list[dict]:
+    """Each path's counts per physics step, ours and raw, and ours' by part (`measure`'s
+    rows; the child's work, under callgrind)."""
+    counts, rows = Counts(prefix), []
     for path, ours, raw in bench_hot_paths.ratios(
         settings.paths, settings.steps, 1, 1, counts, settings.tiers
     ):
-        yield path, ours, raw, counts.last
+        mine, theirs = counts.last  # ours and raw: physics steps per instruction
+        steps, raw_steps = sum(mine.values()) * ours, sum(theirs.values()) * raw
+        rows.append(
+            {
+                "path": path,
+                "ours": 1 / ours,
+                "raw": 1 / raw,
+                "ratio": ours / raw,
+                "parts": {k: n / steps for k, n in by_part(mine).items()},
+                "raw_parts": {k: n / raw_steps for k, n in by_part(theirs).items()},
+            }
+        )
+    return rows
 
 
-def report(settings: InstructionSettings, prefix: str) -> None:
-    """Prints each path's counts (the child's work, under callgrind)."""
-    parts = [p for p, _ in PARTS] + [OTHER]
-    print(
-        f"instructions per physics step (callgrind, {settings.steps} control steps a run; "
-        "ratio = raw's / ours', 1 is free)"
-    )
-    print(f"{'path':40s} {'ours':>9s} {'raw':>9s} {'ratio':>6s}  ours by part (per physics step)")
-    for path, ours, raw, (mine, theirs) in counted_ratios(settings, prefix):
-        steps = sum(mine.values()) * ours  # physics steps of our run
-        split = by_part(mine)
-        shares = ", ".join(f"{p} {split[p] / steps:,.0f}" for p in parts if split[p])
-        print(f"{path:40s} {1 / ours:9,.0f} {1 / raw:9,.0f} {ours / raw:6.3f}  {shares}")
-        raw_split = by_part(theirs)
-        raw_steps = sum(theirs.values()) * raw
-        beside = ", ".join(f"{p} {raw_split[p] / raw_steps:,.0f}" for p in parts if raw_split[p])
-        print(f"{'':40s} {'':9s} {'':9s} {'':6s}  raw: {beside}", flush=True)
+def measure(settings: InstructionSettings) -> list[dict]:
+    """Counts each path under callgrind, in a child process of this program.
+
+    Args:
+      settings: What to count.
+
+    Returns:
+      A row a path: `path`, `ours` and `raw` (instructions per physics step), `ratio`
+      (raw's / ours'), `parts` and `raw_parts` ({`PARTS` name: instructions per physics
+      step}).
+
+    Raises:
+      RuntimeError: If Valgrind is not installed, or the child fails.
+    """
+    missing = [t for t in ("valgrind", "callgrind_control") if shutil.which(t) is None]
+    if missing:
+        found = ", ".join(missing)
+        raise RuntimeError(f"needs Valgrind ({found} not found): apt install valgrind")
+    with tempfile.TemporaryDirectory() as folder:
+        prefix = os.path.join(folder, "callgrind")
+        command = ["valgrind", *_CALLGRIND, f"--callgrind-out-file={prefix}.%p", "-q"]
+        command += [sys.executable, os.path.abspath(__file__), f"--steps={settings.steps}"]
+        command += [f"--paths={','.join(settings.paths)}", f"--tiers={','.join(settings.tiers)}"]
+        done = subprocess.run(command, env={**os.environ, _UNDER: prefix})
+        if done.returncode:
+            raise RuntimeError(f"the count under callgrind failed (exit {done.returncode})")
+        with open(prefix + ".json") as f:
+            return json.load(f)
 
 
 def main(argv: list[str]) -> None:
     del argv
     s = cli.settings_from_flags(InstructionSettings)
     if os.environ.get(_UNDER):  # the child, under callgrind: its dumps carry its pid (%p)
-        report(s, f"{os.environ[_UNDER]}.{os.getpid()}")
+        rows = _counted_rows(s, f"{os.environ[_UNDER]}.{os.getpid()}")
+        with open(os.environ[_UNDER] + ".json", "w") as f:
+            json.dump(rows, f)
         return
     missing = [t for t in ("valgrind", "callgrind_control") if shutil.which(t) is None]
     found = ", ".join(missing)
     cli.require(not missing, f"needs Valgrind ({found} not found): apt install valgrind")
-    with tempfile.TemporaryDirectory() as folder:
-        prefix = os.path.join(folder, "callgrind")
-        command = ["valgrind", *_CALLGRIND, f"--callgrind-out-file={prefix}.%p", "-q"]
-        command += [sys.executable, *sys.argv]
-        code = subprocess.run(command, env={**os.environ, _UNDER: prefix}).returncode
-    if code:
-        sys.exit(code)
+    print(
+        f"instructions per physics step (callgrind, {s.steps} control steps a run; "
+        "ratio = raw's / ours', 1 is free)"
+    )
+    print(f"{'path':40s} {'ours':>9s} {'raw':>9s} {'ratio':>6s}  by part (per physics step)")
+    for row in measure(s):
+        mine = ", ".join(f"{p} {n:,.0f}" for p, n in row["parts"].items() if n)
+        theirs = ", ".join(f"{p} {n:,.0f}" for p, n in row["raw_parts"].items() if n)
+        counts = f"{row['ours']:9,.0f} {row['raw']:9,.0f} {row['ratio']:6.3f}"
+        print(f"{row['path']:40s} {counts}  ours: {mine}")
+        print(f"{'':40s} {'':9s} {'':9s} {'':6s}  raw: {theirs}")
 
 
 def define_flags() -> None:
