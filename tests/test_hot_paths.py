@@ -206,3 +206,52 @@ def test_every_hot_path_runs_few_instructions_beyond_its_rollout():
         assert sum(row["parts"].values()) == pytest.approx(row["ours"], rel=1e-12)
         assert row["parts"]["MuJoCo"] > 0.8 * row["ours"]
     assert not low, f"more instructions beyond the rollout than before: {low}"
+
+
+_DUMP = """\
+version: 1
+creator: callgrind-3.19.0
+events: Ir
+summary: 1110
+
+ob=(1) /usr/lib/libmujoco.so.3.17.0
+fl=(1) ???
+fn=(1) mj_step
+0 1000
+cob=(2) /usr/lib/python3.11/site-packages/numpy/_core/_multiarray_umath.so
+cfn=(2) ufunc
+calls=2 0
+0 99999
+ob=(2)
+fn=(2)
+0 70
++2 30
+ob=(3) /usr/lib/libpython3.11.so.1.0
+fn=(3) eval
+* 10
+"""
+
+
+def test_the_instruction_counts_are_read_as_callgrind_writes_them(tmp_path):
+    """`bench_instructions.self_costs` counts each library's own instructions (a call's
+    inclusive cost, after `calls=`, is its callee's and is not counted again; names given
+    once by number are reused), and refuses a dump whose counts miss its total."""
+    bench = _bench("bench_instructions")
+    dump = tmp_path / "callgrind.1"
+    dump.write_text(_DUMP)
+    costs = bench.self_costs(str(dump))
+    assert dict(costs) == {
+        "/usr/lib/libmujoco.so.3.17.0": 1000,
+        "/usr/lib/python3.11/site-packages/numpy/_core/_multiarray_umath.so": 100,
+        "/usr/lib/libpython3.11.so.1.0": 10,
+    }
+    parts = bench.by_part(costs)
+    assert (parts["MuJoCo"], parts["NumPy"], parts["Python"], parts[bench.OTHER]) == (
+        1000,
+        100,
+        10,
+        0,
+    )
+    dump.write_text(_DUMP.replace("summary: 1110", "summary: 1111"))
+    with pytest.raises(ValueError, match="add to 1110, not 1111"):
+        bench.self_costs(str(dump))
