@@ -208,6 +208,12 @@ def _counted_rows(settings: InstructionSettings, prefix: str) -> list[dict]:
     return rows
 
 
+def _without_valgrind() -> str:
+    """Why this machine cannot count ("" if it can)."""
+    missing = [t for t in ("valgrind", "callgrind_control") if shutil.which(t) is None]
+    return f"needs Valgrind ({', '.join(missing)} not found): apt install valgrind" * bool(missing)
+
+
 def measure(settings: InstructionSettings) -> list[dict]:
     """Counts each path under callgrind, in a child process of this program.
 
@@ -222,10 +228,9 @@ def measure(settings: InstructionSettings) -> list[dict]:
     Raises:
       RuntimeError: If Valgrind is not installed, or the child fails.
     """
-    missing = [t for t in ("valgrind", "callgrind_control") if shutil.which(t) is None]
+    missing = _without_valgrind()
     if missing:
-        found = ", ".join(missing)
-        raise RuntimeError(f"needs Valgrind ({found} not found): apt install valgrind")
+        raise RuntimeError(missing)
     with tempfile.TemporaryDirectory() as folder:
         prefix = os.path.join(folder, "callgrind")
         command = ["valgrind", *_CALLGRIND, f"--callgrind-out-file={prefix}.%p", "-q"]
@@ -246,9 +251,8 @@ def main(argv: list[str]) -> None:
         with open(os.environ[_UNDER] + ".json", "w") as f:
             json.dump(rows, f)
         return
-    missing = [t for t in ("valgrind", "callgrind_control") if shutil.which(t) is None]
-    found = ", ".join(missing)
-    cli.require(not missing, f"needs Valgrind ({found} not found): apt install valgrind")
+    missing = _without_valgrind()
+    cli.require(not missing, missing)
     print(
         f"instructions per physics step (callgrind, {s.steps} control steps a run; "
         "ratio = raw's / ours', 1 is free)"
