@@ -47,9 +47,12 @@ from cpg_suite.protocol import admission, aggregate, files
 from cpg_suite.protocol.stats import mean_std_ci95
 
 _SEED = admission.SEED_NAME  # `<config>_seed<S>`, S in ASCII digits (one definition)
-# (method, task) -> [(metric key in summary.json, unit, higher is better)].
+IN_SAMPLE_METRIC = "in_sample_best_m"  # the in-sample best tried again (`_metric_value`)
+# task -> [(metric, unit, higher is better)]: a key of summary.json, but for the DARwIn-OP
+# walk: runs the board admits only, by what verify re-makes (`_metric_value`); a training
+# record (`best_distance_m`, `final_mean_distance_m`: the submitter's word) is not shown.
 METRICS = {
-    "darwin_walk": [("best_distance_m", "m", True), ("final_mean_distance_m", "m", True)],
+    "darwin_walk": [(IN_SAMPLE_METRIC, "m", True)],
     "pole_balance": [
         ("balanced_last_5000", "fraction of runs", True),
         ("falls", "falls", False),
@@ -263,7 +266,7 @@ def _stats(values: list[float]) -> tuple[float, float, float, float]:
 
 def _published(task: str, method: str, config: str, metric: str):
     """(value, source) of the study for this row, if it reports one."""
-    if task == "darwin_walk" and method == "cem" and metric == "best_distance_m":
+    if task == "darwin_walk" and method == "cem" and metric == IN_SAMPLE_METRIC:
         entry = published.TABLE6_3.get(config)
         if entry:  # The study's best trial of one Webots run: like our in-sample best.
             return entry[0], f"Webots, one run: {published.SOURCE} ({entry[2]}; u.d.)"
@@ -275,19 +278,40 @@ def _published(task: str, method: str, config: str, metric: str):
     return None, ""
 
 
-def leaderboard_rows(found: list[dict]) -> list[dict]:
+def _metric_value(summary: dict, metric: str):
+    """A run's value of a study metric: its in-sample best tried again (`summary.json`'s
+    `in_sample`, which verify re-makes) for `IN_SAMPLE_METRIC`, else the summary's key."""
+    if metric == IN_SAMPLE_METRIC:
+        return (summary.get("in_sample") or {}).get("distance_m")
+    return summary.get(metric)
+
+
+def leaderboard_rows(found: list[dict], admitted: list[dict] | None = None) -> list[dict]:
+    """The study's metrics (`METRICS`), a row per task, method, configuration and metric.
+    A DARwIn-OP run counts only if the board admits it: a copy is no seed, and a summary's
+    training record that nothing re-makes is shown nowhere.
+
+    Args:
+      found: The runs (`find_runs`).
+      admitted: The DARwIn-OP runs the board admits (`admit(found)`; None: worked out).
+
+    Returns:
+      The rows (`LEADERBOARD_FIELDS`).
+    """
+    if admitted is None:
+        admitted, _ = admit(found)
+    checked = {run["dir"]: run for run in admitted}
     groups = defaultdict(list)
     for run in found:
-        if not run.get("incomplete"):
+        if is_darwin_run(run):
+            run = checked.get(run["dir"])
+        if run is not None and not run.get("incomplete"):
             groups[(run["task"], run["method"], run["config"])].append(run["summary"])
     rows = []
     for (task, method, config), summaries in sorted(groups.items()):
         for metric, unit, higher in METRICS.get(task, []):
-            values = [
-                s[metric]
-                for s in summaries
-                if isinstance(s.get(metric), (int, float, bool)) and s.get(metric) is not None
-            ]
+            values = [_metric_value(s, metric) for s in summaries]
+            values = [v for v in values if isinstance(v, (int, float, bool))]
             values = [float(v) for v in values if not isinstance(v, float) or math.isfinite(v)]
             if not values:
                 continue
@@ -773,11 +797,12 @@ def write_tables(runs: str, out: str) -> str:
     """
     check_runs_dir(runs)
     found, skipped = find_runs(runs)
-    rows = leaderboard_rows(found)
+    current = admit(found)
+    rows = leaderboard_rows(found, current[0])
     out_dir = os.path.dirname(os.path.abspath(out))
     os.makedirs(out_dir, exist_ok=True)
     write_csv(out, rows, LEADERBOARD_FIELDS)
-    boards = darwin_tables(found)
+    boards = darwin_tables(found, current=current)
     for name, table, fields in boards:
         write_csv(os.path.join(out_dir, name), table, fields)
     for line in skipped:
@@ -794,7 +819,9 @@ def write_tables(runs: str, out: str) -> str:
 
 
 def darwin_tables(
-    found: list[dict], versions: tuple[int | None, ...] | None = None
+    found: list[dict],
+    versions: tuple[int | None, ...] | None = None,
+    current: tuple[list[dict], list[dict]] | None = None,
 ) -> list[tuple[str, list[dict], list[str]]]:
     """The DARwIn-OP boards' files: `darwin_leaderboard.csv` and `darwin_not_admitted.csv`
     (the current version), then `darwin_leaderboard_v<n>.csv` and
@@ -804,6 +831,7 @@ def darwin_tables(
       found: The runs (`find_runs`).
       versions: The boards (None for the current one); default: the current one and
         every version of `history_versions`.
+      current: The current board's `admit(found)`, where worked out already.
 
     Returns:
       `(file name, rows, fields)` per file, two per board, in that order.
@@ -811,7 +839,10 @@ def darwin_tables(
     tables = []
     for version in (None, *history_versions(found)) if versions is None else versions:
         suffix = "" if version is None else f"_v{version}"
-        rows, refused = darwin_board(found, version)
+        if version is None and current is not None:
+            rows, refused = darwin_rows(current[0], admission.BOARD_VERSION), current[1]
+        else:
+            rows, refused = darwin_board(found, version)
         tables.append((f"darwin_leaderboard{suffix}.csv", rows, DARWIN_FIELDS))
         tables.append((f"darwin_not_admitted{suffix}.csv", refused, NOT_ADMITTED_FIELDS))
     return tables

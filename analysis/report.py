@@ -608,8 +608,8 @@ def write_report(runs: str, out: str, gaits: bool = False) -> str:
     """
     leaderboard.check_runs_dir(runs)
     found, skipped = leaderboard.find_runs(runs)
-    rows = leaderboard.leaderboard_rows(found)
     admitted, refused = leaderboard.admit(found)
+    rows = leaderboard.leaderboard_rows(found, admitted)
     darwin = leaderboard.darwin_rows(admitted, leaderboard.admission.BOARD_VERSION)
     history = leaderboard.darwin_tables(found, tuple(leaderboard.history_versions(found)))
     _plt()

@@ -8,6 +8,7 @@ shipped through a link. Each is refused or listed in one line, and none raises.
 
 import csv
 import io
+import json
 import os
 import shutil
 import zipfile
@@ -415,3 +416,88 @@ def test_a_run_whose_folder_names_no_seed_is_refused_in_one_line(tmp_path, name)
     run = _copy(tmp_path, GAIT_RUN, "cem", name)
     reason = _board_refusal(run)
     assert reason.startswith(f"its folder's name {name} is not <configuration>_seed<N>"), reason
+
+
+def _leaves(tree, path=()):
+    """Every number and flag in a JSON tree, as (path of keys, value)."""
+    if isinstance(tree, dict):
+        for key, value in tree.items():
+            yield from _leaves(value, (*path, key))
+    elif isinstance(tree, (bool, int, float)):
+        yield path, tree
+
+
+def _forged(value):
+    """A value the submitter would rather have: a flag flipped, a number raised."""
+    if isinstance(value, bool):
+        return not value
+    return value + 7 if isinstance(value, int) else value * 1.25 + 1.0
+
+
+def _board_files(runs, out) -> dict[str, str]:
+    """Every file the board's command writes for a run tree, by name."""
+    leaderboard.write_tables(str(runs), str(out / "leaderboard.csv"))
+    return {p.name: p.read_text(encoding="utf-8") for p in sorted(out.iterdir())}
+
+
+# What a run's summary says beside its cards that the board shows as the submitter's word:
+# its budget. Claiming more of it can only move the run to a larger budget's track; less
+# than its config gave it is refused (`admission.training_refusal`).
+BUDGET = {("evaluations",), ("sim_steps",), ("validation_sim_steps",), ("env_steps",)}
+
+
+@pytest.mark.parametrize("source", [GAIT_RUN, PPO_RUN], ids=["gait", "policy"])
+def test_a_summary_number_that_nothing_re_makes_changes_nothing_the_board_writes(tmp_path, source):
+    """helper-43's finding (2026-11-29): a copy alone in its tree, its summary's
+    `final_mean_distance_m` raised, was admitted and its training record counted in the
+    study's metrics. As a class: each number or flag a summary holds outside its cards and
+    its in-sample best tried again (which verify re-makes), raised on its own, leaves
+    every file the board writes as it was, or has the run refused; only the budget shows,
+    and it only changes the track."""
+    name = os.path.basename(source)
+    method = os.path.basename(os.path.dirname(os.path.dirname(source)))
+    honest = _copy(tmp_path / "honest", source, method, name)
+    before = _board_files(tmp_path / "honest" / "runs", tmp_path / "honest" / "board")
+    summary = json.loads(open(os.path.join(honest, "summary.json"), encoding="utf-8").read())
+    leaves = [
+        (path, value)
+        for path, value in _leaves(summary)
+        if path[0] not in ("test", "history", "in_sample")
+    ]
+    assert len(leaves) >= 8, leaves
+    for i, (path, value) in enumerate(leaves):
+        forged = json.loads(json.dumps(summary))
+        node = forged
+        for key in path[:-1]:
+            node = node[key]
+        node[path[-1]] = _forged(value)
+        root = tmp_path / f"forged{i}"
+        run = _copy(root, source, method, name)
+        with open(os.path.join(run, "summary.json"), "w", encoding="utf-8") as f:
+            json.dump(forged, f)
+        after = _board_files(root / "runs", root / "board")
+        refused = list(csv.DictReader(io.StringIO(after["darwin_not_admitted.csv"])))
+        if refused:
+            assert len(refused) == 1 and refused[0]["reason"].isprintable(), (path, refused)
+        elif path not in BUDGET:
+            assert after == before, f"{'.'.join(path)} raised shows on the board"
+
+
+def test_a_training_record_forged_in_both_its_files_changes_nothing_the_board_writes(tmp_path):
+    """The in-sample best's training record raised where admission cross-checks it
+    (`summary.json`'s `best_distance_m` and its `IN_SAMPLE` gait's `distance_m`, alike):
+    the files hold together and the run is admitted, but the board shows the in-sample best
+    tried again (which verify re-makes), so nothing it writes changes."""
+    name = os.path.basename(GAIT_RUN)
+    _copy(tmp_path / "honest", GAIT_RUN, "cem", name)
+    before = _board_files(tmp_path / "honest" / "runs", tmp_path / "honest" / "board")
+    run = _copy(tmp_path / "forged", GAIT_RUN, "cem", name)
+    for file, key in (("summary.json", "best_distance_m"), (admission.IN_SAMPLE, "distance_m")):
+        path = os.path.join(run, file)
+        record = json.loads(open(path, encoding="utf-8").read())
+        record[key] = 9.9
+        with open(path, "w", encoding="utf-8") as f:
+            json.dump(record, f)
+    assert admission.run_refusal(run) is None
+    after = _board_files(tmp_path / "forged" / "runs", tmp_path / "forged" / "board")
+    assert after == before

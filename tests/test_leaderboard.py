@@ -2,6 +2,8 @@
 
 import csv
 import json
+import os
+import shutil
 
 import pytest
 
@@ -20,16 +22,34 @@ def _read(path):
         return list(csv.DictReader(f))
 
 
+SHIPPED = os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "results", "protocol", "runs"
+)
+
+
 def test_leaderboard_rows_and_published_values(tmp_path, capsys):
+    """The study's metrics: a DARwIn walking configuration by its admitted runs' in-sample
+    best tried again (a run the board refuses counts for nothing), the published best
+    trial beside it; other tasks by their summaries."""
     runs = tmp_path / "runs"
-    for seed, best in enumerate((2.0, 3.0)):
-        _run(
-            runs,
-            "cem",
-            "darwin_walk",
-            f"K50_n0.8_e2_seed{seed}",
-            {"best_distance_m": best, "final_mean_distance_m": best - 0.5},
+    tried = []
+    for seed in (0, 1):
+        name = f"K50_n0.8_e2_seed{seed}"
+        shutil.copytree(
+            os.path.join(SHIPPED, "cem", "darwin_walk", name), runs / "cem" / "darwin_walk" / name
         )
+        tried.append(
+            json.loads((runs / "cem" / "darwin_walk" / name / "summary.json").read_text())[
+                "in_sample"
+            ]["distance_m"]
+        )
+    _run(
+        runs,
+        "cem",
+        "darwin_walk",
+        "K50_n0.8_e2_seed2",
+        {"best_distance_m": 9.0, "in_sample": {"distance_m": 9.0, "fell": False}},
+    )
     for seed in range(3):
         _run(
             runs,
@@ -43,14 +63,20 @@ def test_leaderboard_rows_and_published_values(tmp_path, capsys):
     out = tmp_path / "out" / "leaderboard.csv"
     line = leaderboard.write_tables(str(runs), str(out))
     # The broken run is counted and listed as not admitted, with why (and on stderr).
-    assert line.startswith("6 runs: ") and str(out) in line
+    assert line.startswith("7 runs: ") and str(out) in line
     not_admitted = _read(out.parent / "darwin_not_admitted.csv")
     (broken,) = [r for r in not_admitted if r["run"].endswith("broken_seed0")]
     assert broken["reason"].startswith("missing ") or "unreadable" in broken["reason"]
     rows = _read(out)
     assert list(rows[0]) == leaderboard.LEADERBOARD_FIELDS
-    k50 = [r for r in rows if r["config"] == "K50_n0.8_e2" and r["metric"] == "best_distance_m"][0]
-    assert k50["n"] == "2" and float(k50["mean"]) == 2.5 and float(k50["best"]) == 3.0
+    (k50,) = [r for r in rows if r["config"] == "K50_n0.8_e2"]
+    assert k50["metric"] == leaderboard.IN_SAMPLE_METRIC == "in_sample_best_m"
+    assert k50["n"] == "2" and float(k50["mean"]) == (tried[0] + tried[1]) / 2
+    assert float(k50["best"]) == max(tried)
+    assert {r["run"].rsplit("/", 1)[-1] for r in not_admitted} == {
+        "broken_seed0",
+        "K50_n0.8_e2_seed2",
+    }
     assert float(k50["published"]) == published.TABLE6_3["K50_n0.8_e2"][0]
     assert "CEM-N25" in k50["published_source"] and "Webots, one run" in k50["published_source"]
     assert "beats_published" not in k50 and "ratio_to_published" not in k50
