@@ -76,7 +76,12 @@ LEADERBOARD_FIELDS = [
     "best",
     "published",
     "published_source",
+    "checked_by",
 ]
+# Who vouches for a row of the study's metrics: verify, which re-makes the DARwIn walk's
+# in-sample best from the run's gait; for the other tasks, nothing but the run's own
+# summary.json (no re-scorer exists for them: re-run the config's command to check).
+CHECKED_BY_VERIFY, UNCHECKED = "verify", "nothing: the run's own summary.json"
 
 
 PRESET_METHOD = (
@@ -133,7 +138,12 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
       `(found, skipped)`: one dict per run or part of one; one line per file skipped.
     """
     found, skipped = [], []
-    ledger = admission.read_ledger(ledger_path(root))
+    try:
+        ledger = admission.read_ledger(ledger_path(root))
+    except (OSError, ValueError) as e:  # a ledger the board may not read vouches for none
+        ledger = {}
+        why = admission.shown_reason(f"{type(e).__name__}: {e}")
+        skipped.append(f"{admission.shown_name(ledger_path(root))}: {why}; no run on record")
     for dirpath, dirnames, filenames in walk_sorted(root):
         for name in dirnames:  # os.walk lists a link to a folder here, and never enters it
             if os.path.islink(os.path.join(dirpath, name)):
@@ -180,6 +190,7 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
         )
     for run in found:  # the root's ledger, which `admit` judges every run by
         run["board_ledger"] = ledger
+        run["too_deep"] = len(os.path.relpath(run["dir"], root).split(os.sep)) > 3
     return found, skipped
 
 
@@ -332,6 +343,7 @@ def leaderboard_rows(found: list[dict], admitted: list[dict] | None = None) -> l
                     "best": max(values) if higher else min(values),
                     "published": "" if pub is None else pub,
                     "published_source": source,
+                    "checked_by": CHECKED_BY_VERIFY if metric == IN_SAMPLE_METRIC else UNCHECKED,
                 }
             )
     return rows
@@ -549,7 +561,7 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
         # finite value) is left out of the mean, as before
         checked = all(q in t["all"]["quality"] for t in tests)
         row[q] = _mean([t["all"]["quality"][q] for t in tests]) if checked else ""
-    pub, source = _published("darwin_walk", method, config, "best_distance_m")
+    pub, source = _published("darwin_walk", method, config, IN_SAMPLE_METRIC)
     row["published_best_trial"] = "" if pub is None else pub
     row["published_source"] = source
     return row
@@ -633,14 +645,19 @@ def admit(
     if ledger is None:  # runs found under one root (`find_runs`) carry its ledger
         ledger = next((run["board_ledger"] for run in found if "board_ledger" in run), None)
     darwin = [run for run in found if is_darwin_run(run)]
-    reasons = admission.refusals(
-        [run["dir"] for run in darwin if not _score_card(run)], board, ledger
-    )
+    judged = [run["dir"] for run in darwin if not _score_card(run) and not run.get("too_deep")]
+    reasons = admission.refusals(judged, board, ledger)
     admitted, refused = [], []
     dirs = [os.path.abspath(run["dir"]) for run in darwin if not _score_card(run)]
     base = os.path.commonpath(dirs) if dirs else ""
     for run in darwin:
-        reason = PRESET_REFUSAL if _score_card(run) else reasons.get(run["dir"])
+        reason = (
+            PRESET_REFUSAL
+            if _score_card(run)
+            else admission.DEPTH_REFUSAL
+            if run.get("too_deep")
+            else reasons.get(run["dir"])
+        )
         if reason is None:
             admitted.append(_checked(run))
             continue

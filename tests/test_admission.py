@@ -378,7 +378,8 @@ FORGERIES = {
     # past a float's range, a seed left out of the config (two folders of one seed).
     "summary_nested_deeply": (
         lambda run: _raw(run, "summary.json", "[" * 100_000 + "]" * 100_000),
-        "unreadable run files (ValueError: summary.json: nested too deeply)",
+        "unreadable run files (ValueError: summary.json: nested more than 32 lists and "
+        "objects deep)",
     ),
     "summary_number_overflows": (
         lambda run: _raw(

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from analysis import leaderboard
-from cpg_suite.protocol import admission, verify
+from cpg_suite.protocol import admission, copies, verify
+from cpg_suite.protocol import files as files_module
 from cpg_suite.runfiles import exported
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -501,3 +502,181 @@ def test_a_training_record_forged_in_both_its_files_changes_nothing_the_board_wr
     assert admission.run_refusal(run) is None
     after = _board_files(tmp_path / "forged" / "runs", tmp_path / "forged" / "board")
     assert after == before
+
+
+def _edit_summary(run: str, change) -> None:
+    path = os.path.join(run, "summary.json")
+    summary = json.loads(open(path, encoding="utf-8").read())
+    change(summary)
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(summary, f)
+
+
+@pytest.mark.parametrize("depth", [33, 900, 100_000])
+def test_a_run_file_nested_too_deep_is_refused_in_one_line_and_the_board_goes_on(tmp_path, depth):
+    """An outside attack of 2026-11-29: an extra key nested 900 deep in a test card's row
+    and its history card's sent the card comparison past Python's recursion limit, and the
+    board wrote nothing. As a class: JSON nested past `files.MAX_JSON_DEPTH`, however deep,
+    is refused when read."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+
+    def deepen(summary):
+        for card in (summary["test"], *summary.get("history", {}).values()):
+            card["tiers"]["darwin_walk"]["x"] = "DEEP"
+
+    _edit_summary(run, deepen)
+    path = os.path.join(run, "summary.json")
+    text = open(path, encoding="utf-8").read()  # past what `json.dump` writes
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text.replace('"DEEP"', '{"a": ' * (depth - 1) + "{}" + "}" * (depth - 1)))
+    files = _board_files(tmp_path / "runs", tmp_path / "board")
+    (row,) = csv.DictReader(io.StringIO(files["darwin_not_admitted.csv"]))
+    assert row["reason"] == (
+        "unreadable run files (ValueError: summary.json: nested more than 32 lists and "
+        "objects deep)"
+    )
+
+
+def test_the_deepest_shipped_run_file_nests_well_within_the_limit():
+    deepest = 0
+    for dirpath, _, names in os.walk(RUNS):
+        for name in names:
+            if name.endswith(".json"):
+                with open(os.path.join(dirpath, name), encoding="utf-8") as f:
+                    deepest = max(deepest, files_module._depth(json.load(f)))
+    assert 3 <= deepest <= files_module.MAX_JSON_DEPTH // 2
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["x\r\n3,darwin_walk,cem,FORGED,1,cem/darwin_walk/FORGED_seed1,forged", "a\u2028b\x1b[2K"],
+)
+def test_a_reason_quoting_a_runs_own_text_is_one_printable_line(tmp_path, text):
+    """An outside attack of 2026-11-29: a card's `not_protocol` entry is quoted in the
+    refusal, and its newline forged a row of the not-admitted listing. Every reason is
+    printed with its other characters escaped (`admission.shown_reason`)."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+    _edit_summary(run, lambda s: s["test"].update(not_protocol=[text]))
+    files = _board_files(tmp_path / "runs", tmp_path / "board")
+    lines = files["darwin_not_admitted.csv"].splitlines()
+    assert len(lines) == 2, lines
+    (row,) = csv.DictReader(io.StringIO(files["darwin_not_admitted.csv"]))
+    assert row["reason"].isprintable() and "FORGED" not in row["run"]
+    assert row["reason"] == admission.refusals([run]).get(run)
+
+
+@pytest.mark.parametrize("ledger", ["bytes", "folder"])
+def test_a_ledger_the_board_may_not_read_vouches_for_none_and_the_board_goes_on(tmp_path, ledger):
+    """An outside attack of 2026-11-29: a `rescored.csv` beside the tree in bytes that are
+    not UTF-8, or a folder of that name, made the board raise and write nothing. It is
+    now listed as skipped, and no run counts as re-scored."""
+    _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+    path = tmp_path / admission.LEDGER
+    if ledger == "bytes":
+        path.write_bytes(b"run,check\n\xff\xfe,full\n")
+    else:
+        path.mkdir()
+    found, skipped = leaderboard.find_runs(str(tmp_path / "runs"))
+    assert len(skipped) == 1 and "rescored.csv" in skipped[0] and skipped[0].isprintable()
+    files = _board_files(tmp_path / "runs", tmp_path / "board")
+    (row,) = csv.DictReader(io.StringIO(files["darwin_leaderboard.csv"]))
+    assert row["rescored_full_runs"] in ("", "0")
+
+
+def _relabelled(source: str, dest: str, version: int = 2) -> None:
+    """A copy of a version-1 run that claims to have trained under `version`: its config
+    says so, and its cards and tables of earlier versions are gone."""
+    shutil.copytree(source, dest)
+    config = json.loads(open(os.path.join(dest, "config.json"), encoding="utf-8").read())
+    config["settings"]["benchmark_version"] = version
+    with open(os.path.join(dest, "config.json"), "w", encoding="utf-8") as f:
+        json.dump(config, f)
+
+    def drop_history(summary):
+        kept = {k: c for k, c in summary.get("history", {}).items() if int(k[1:]) >= version}
+        summary.pop("history", None)
+        if kept:
+            summary["history"] = kept
+
+    _edit_summary(dest, drop_history)
+    for earlier in range(1, version):
+        path = os.path.join(dest, f"trials_v{earlier}.csv")
+        if os.path.exists(path):
+            os.remove(path)
+
+
+V1_RUN = os.path.join(RUNS, "ppo", "darwin_walk", "cpg_v1_seed0")
+
+
+@pytest.mark.parametrize("method, name", [("zz_mine", "cpg_seed0"), ("ppo", "other_seed0")])
+def test_a_version_1_run_relabelled_as_a_later_version_under_another_name_is_a_copy(
+    tmp_path, method, name
+):
+    """An outside attack of 2026-11-29: version-1 runs copied under another method and
+    relabelled as trained under version 2 (config, history and tables consistent) were
+    ranked 3rd, as the copy check compared only runs that claim the same training
+    physics. Now only a configuration's own seed trained again under another version is
+    exempt (`admission._retrained`)."""
+    runs = tmp_path / "runs"
+    original = runs / "ppo" / "darwin_walk" / "cpg_v1_seed0"
+    shutil.copytree(V1_RUN, original)
+    copy = runs / method / "darwin_walk" / name
+    _relabelled(V1_RUN, str(copy))
+    assert admission.refusals([str(copy)]) == {}  # alone, its files hold together
+    reasons = admission.refusals([str(original), str(copy)])
+    assert list(reasons) == [str(copy)]
+    assert reasons[str(copy)].startswith(
+        "a copy of ppo/darwin_walk/cpg_v1_seed0, which trained under other physics: the same "
+    )
+
+
+def test_a_configurations_own_seed_trained_again_under_version_2_is_not_a_copy(tmp_path):
+    """The shipped pairs the exemption is for: a CEM seed trained to the same gait under
+    versions 1 and 2 (`K50_n0.8_e2_v1_seed3`, `K50_n0.8_e2_seed3`) are both admitted."""
+    pair = []
+    for name in ("K50_n0.8_e2_v1_seed3", "K50_n0.8_e2_seed3"):
+        pair.append(_copy(tmp_path, os.path.join(RUNS, "cem", "darwin_walk", name), "cem", name))
+    assert admission.refusals(pair) == {}
+    prints = [
+        copies.fingerprint(d, admission.artifact_files(d), admission.read_trials(f"{d}/trials.csv"))
+        for d in pair
+    ]
+    assert copies.copy_of(*prints)  # without the exemption, one would be refused
+
+
+def test_a_copy_one_folder_deeper_is_refused_and_displaces_no_original(tmp_path):
+    """An outside attack of 2026-11-29: a byte copy at `runs/a/ppo/darwin_walk/cpg_seed1`
+    shared its original's ledger row (the last three names) and, sorting first, had the
+    original refused as its copy. A run deeper than <method>/<task>/<run> is refused."""
+    source = os.path.join(RUNS, "ppo", "darwin_walk", "cpg_seed1")
+    original = _copy(tmp_path, source, "ppo", "cpg_seed1")
+    shutil.copytree(source, tmp_path / "runs" / "a" / "ppo" / "darwin_walk" / "cpg_seed1")
+    found, _ = leaderboard.find_runs(str(tmp_path / "runs"))
+    admitted, refused = leaderboard.admit(found)
+    assert [r["dir"] for r in admitted] == [original]
+    (row,) = refused
+    assert row["run"].startswith("a/") and row["reason"] == admission.DEPTH_REFUSAL
+
+
+def test_a_trial_table_past_its_size_is_refused_before_its_rows_are_built(tmp_path):
+    """An outside attack of 2026-11-29: a 64 MiB trial table of valid short rows cost
+    about 3 GB of memory before its row count was checked. A table over
+    `admission.MAX_TRIAL_TABLE_CHARS` is refused as it is read; every shipped one is far
+    below it."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+    path = os.path.join(run, "trials.csv")
+    text = open(path, encoding="utf-8", newline="").read()
+    header, first = text.split("\r\n")[:2]
+    count = admission.MAX_TRIAL_TABLE_CHARS // len(first) + 1
+    with open(path, "w", encoding="utf-8", newline="") as f:
+        f.write(header + "\r\n" + (first + "\r\n") * count)
+    reason = admission.run_refusal(run)
+    assert reason.startswith("unreadable run files (ValueError: trials.csv holds ")
+    assert reason.endswith(f"over the {admission.MAX_TRIAL_TABLE_CHARS} a trial table may hold)")
+    largest = max(
+        os.path.getsize(os.path.join(d, n))
+        for d, _, names in os.walk(RUNS)
+        for n in names
+        if n.startswith("trials")
+    )
+    assert largest * 10 < admission.MAX_TRIAL_TABLE_CHARS

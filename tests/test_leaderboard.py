@@ -80,6 +80,12 @@ def test_leaderboard_rows_and_published_values(tmp_path, capsys):
     assert float(k50["published"]) == published.TABLE6_3["K50_n0.8_e2"][0]
     assert "CEM-N25" in k50["published_source"] and "Webots, one run" in k50["published_source"]
     assert "beats_published" not in k50 and "ratio_to_published" not in k50
+    assert k50["checked_by"] == leaderboard.CHECKED_BY_VERIFY
+    tokic = [r for r in rows if r["task"] == "tokic"]
+    assert tokic and all(r["checked_by"] == leaderboard.UNCHECKED for r in tokic)
+    (board,) = _read(out.parent / "darwin_leaderboard.csv")  # the same value, on the board
+    assert board["published_best_trial"] == k50["published"]
+    assert board["published_source"] == k50["published_source"]
     assert not (out.parent / "claims.csv").exists()  # the claims: analysis.study's alone
     err = capsys.readouterr().err
     assert "broken_seed0" in err

@@ -165,6 +165,13 @@ def name_refusal(name: str, what: str = "its folder") -> str | None:
 
 
 LINK_REFUSAL = "a symbolic link, not a folder of its own: the board reads no run through a link"
+# A run found deeper than <method>/<task>/<run> under the tree the board was given: its
+# last three names could pass for another run's, whose ledger row (`run_key`) it would
+# share (an outside attack of 2026-11-29 had such a copy displace its original).
+DEPTH_REFUSAL = (
+    "deeper than <method>/<task>/<run> under the run tree: the board counts a run by its "
+    "place there"
+)
 
 
 def path_refusal(run_dir: str, base: str = "", name: str | None = None) -> str | None:
@@ -313,6 +320,13 @@ TRIAL_STEPS = card_stats.TRIAL_STEPS
 PHYSICS_STEPS_PER_CONTROL_STEP = card_stats.PHYSICS_STEPS_PER_CONTROL_STEP
 
 
+# The most a trial table may hold: the largest shipped holds 99,187 characters (250
+# trials with their measures); 20 times that leaves room for more seeds or measures, and
+# keeps the rows the board builds from a table far below a run file's `files.MAX_BYTES`
+# (a 64 MiB table made about 3 GB of them: an outside attack of 2026-11-29). A choice.
+MAX_TRIAL_TABLE_CHARS = 2_000_000
+
+
 def read_trials(path: str) -> list[dict]:
     """A trial table (`score.TRIAL_FIELDS`, then a column per gait-quality measure) as
     `score.score_gait_trials` returns it: a table with measure columns gives each row its
@@ -325,6 +339,11 @@ def read_trials(path: str) -> list[dict]:
         wrong kind, or a file the board may not read (`files.refusal`).
     """
     text = files.read_text(path)
+    if len(text) > MAX_TRIAL_TABLE_CHARS:
+        raise ValueError(
+            f"{os.path.basename(path)} holds {len(text)} characters, over the "
+            f"{MAX_TRIAL_TABLE_CHARS} a trial table may hold"
+        )
     try:
         reader = csv.DictReader(io.StringIO(text, newline=""))
         header = reader.fieldnames or []
@@ -784,6 +803,16 @@ def file_refusal(run_dir: str) -> str | None:
     return None
 
 
+def shown_reason(reason: str) -> str:
+    """A refusal as the board prints it: one line of printable characters, each other
+    character escaped (a reason may quote a run's own text, as a card's `not_protocol`
+    does: a newline there would forge a line of the listing; an outside attack of
+    2026-11-29)."""
+    if reason.isprintable():
+        return reason
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in reason)
+
+
 def run_refusal(run_dir: str, version: int | None = None, name: str | None = None) -> str | None:
     """Why the board of `version` refuses one run folder (None: admitted, copies aside).
 
@@ -794,8 +823,14 @@ def run_refusal(run_dir: str, version: int | None = None, name: str | None = Non
         before renaming it into place: `submit._submit`).
 
     Returns:
-      A one-line reason, or None.
+      A one-line reason of printable characters (`shown_reason`), or None.
     """
+    reason = _run_refusal(run_dir, version, name)
+    return None if reason is None else shown_reason(reason)
+
+
+def _run_refusal(run_dir: str, version: int | None, name: str | None) -> str | None:
+    """`run_refusal`'s reason, as the checks word it."""
     reason = path_refusal(run_dir, name=name)
     if reason:
         return reason
@@ -1272,10 +1307,11 @@ def refusals(
     in any configuration of any method; and a second run of one seed of a configuration
     (`seed0` and `seed00`). Earlier: a run the ledger beside the tree records as
     reproduced with its present files (`_on_record`), then the run that says it started
-    first (`copies.started`), then path order. Runs trained under versions of different training
-    physics (`protocol.trained_alike`) are not compared: a version-1 run is listed beside
-    its version-2 re-run, never ranked with it (six shipped CEM seeds trained to the same
-    gait under both: the limit never bit).
+    first (`copies.started`), then path order. A run and its re-run under a version of
+    other training physics (`protocol.trained_alike`; the same method, configuration and
+    seed, `_retrained`) are not compared: a version-1 run is listed beside its version-2
+    re-run, never ranked with it (six shipped CEM seeds trained to the same gait under
+    both: the limit never bit). Any other pair is, whatever physics each claims.
 
     Args:
       run_dirs: Run folders.
@@ -1308,7 +1344,7 @@ def refusals(
             seeds[seed] = run_dir
         else:
             refused[run_dir] = reason
-    return {d: refused[d] for d in run_dirs if d in refused}
+    return {d: shown_reason(refused[d]) for d in run_dirs if d in refused}
 
 
 def _tree(run_dir: str) -> str:
@@ -1392,11 +1428,39 @@ def _copy_refusal(run_dir: str, version: int | None, kept: list, base: str = "")
         return _one_line(f"unreadable gait or policy ({type(e).__name__}: {e})"), None
     trained_as = _trained_as(run_dir)
     for earlier, their_physics, theirs in kept:
-        same = their_physics == trained_as and copies.copy_of(fingerprint, theirs)
+        if their_physics != trained_as and _retrained(run_dir, earlier):
+            continue  # one seed trained again under another version's physics: not compared
+        same = copies.copy_of(fingerprint, theirs)
         if same:
             where = shown(earlier, base)
+            if their_physics != trained_as:
+                return (
+                    f"a copy of {where}, which trained under other physics: the same {same} "
+                    "as values, under another method, configuration or seed"
+                ), None
             return f"a copy of {where}: the same {same} as values (one run, not another)", None
     return None, fingerprint
+
+
+# A configuration's name trained again under a later benchmark version: the same name, or
+# the earlier one's with `_v<n>` (K50_n0.8_e2_v1 and K50_n0.8_e2, cpg_v1 and cpg).
+_VERSIONED = re.compile(r"^(?P<config>.+?)(?:_v[1-9][0-9]*)?_seed(?P<seed>[0-9]+)$")
+
+
+def _retrained(run_dir: str, earlier: str) -> bool:
+    """Whether two runs are one method's configuration and seed trained under two
+    versions (`_VERSIONED`): such a pair may hold the same gait (six shipped CEM seeds
+    trained to it under both: the limit never bit). Any other pair that does is a copy,
+    whichever physics it claims to have trained under (an outside attack of 2026-11-29
+    relabelled version-1 runs as version 2 under another method and was ranked)."""
+    (method, _, name), (their_method, _, their_name) = _tail(run_dir), _tail(earlier)
+    ours, theirs = _VERSIONED.match(name), _VERSIONED.match(their_name)
+    return (
+        method == their_method
+        and ours is not None
+        and theirs is not None
+        and ours.group("config", "seed") == theirs.group("config", "seed")
+    )
 
 
 def _trained_as(run_dir: str) -> int:

@@ -87,26 +87,50 @@ def _finite_float(text: str) -> float:
     return value
 
 
+# How deep a run's JSON may nest: the deepest shipped file nests 7 levels; a deeper one
+# would send the board's recursive card comparisons past Python's recursion limit (an
+# outside attack of 2026-11-29). A choice, with room to spare.
+MAX_JSON_DEPTH = 32
+
+
+def _depth(value: object) -> int:
+    """How many lists and objects deep `value` nests (without recursion)."""
+    deepest, stack = 0, [(value, 0)]
+    while stack:
+        node, level = stack.pop()
+        if isinstance(node, (dict, list)):
+            deepest = max(deepest, level + 1)
+            stack.extend(
+                (child, level + 1) for child in (node.values() if isinstance(node, dict) else node)
+            )
+    return deepest
+
+
 def read_json(path: str) -> object:
     """A run's JSON file, strictly: a regular file (`refusal`), each key once per object,
-    no NaN or Infinity (nor a number too large for a float), nesting Python can parse.
+    no NaN or Infinity (nor a number too large for a float), nesting at most
+    `MAX_JSON_DEPTH` lists and objects deep.
 
     Raises:
       OSError: If it cannot be read.
       ValueError: If it may not be read, or is not strict JSON (the message says why).
     """
     text = read_bytes(path).decode("utf-8")
+    too_deep = f"{os.path.basename(path)}: nested more than {MAX_JSON_DEPTH} lists and objects deep"
     try:
-        return json.loads(
+        value = json.loads(
             text,
             object_pairs_hook=_strict_object,
             parse_constant=_no_constant,
             parse_float=_finite_float,
         )
     except RecursionError:
-        raise ValueError(f"{os.path.basename(path)}: nested too deeply") from None
+        raise ValueError(too_deep) from None
     except ValueError as e:
         raise ValueError(f"{os.path.basename(path)}: {e}") from None
+    if _depth(value) > MAX_JSON_DEPTH:
+        raise ValueError(too_deep)
+    return value
 
 
 def read_text(path: str) -> str:
