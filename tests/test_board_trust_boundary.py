@@ -608,7 +608,15 @@ def _relabelled(source: str, dest: str, version: int = 2) -> None:
 V1_RUN = os.path.join(RUNS, "ppo", "darwin_walk", "cpg_v1_seed0")
 
 
-@pytest.mark.parametrize("method, name", [("zz_mine", "cpg_seed0"), ("ppo", "other_seed0")])
+@pytest.mark.parametrize(
+    "method, name",
+    [
+        ("zz_mine", "cpg_seed0"),
+        ("ppo", "other_seed0"),
+        ("ppo", "cpg_v7_seed0"),
+        ("ppo", "cpg_v2_seed0"),
+    ],
+)
 def test_a_version_1_run_relabelled_as_a_later_version_under_another_name_is_a_copy(
     tmp_path, method, name
 ):
@@ -642,6 +650,12 @@ def test_a_configurations_own_seed_trained_again_under_version_2_is_not_a_copy(t
         for d in pair
     ]
     assert copies.copy_of(*prints)  # without the exemption, one would be refused
+    # What stays the submitter's word (docs/protocol.md#admission): a version-1 run copied
+    # to its configuration's plain name and relabelled as version 2 is that re-run.
+    v1 = _copy(tmp_path / "v1", V1_RUN, "ppo", "cpg_v1_seed0")
+    relabelled = tmp_path / "v1" / "runs" / "ppo" / "darwin_walk" / "cpg_seed0"
+    _relabelled(V1_RUN, str(relabelled))
+    assert admission.refusals([v1, str(relabelled)]) == {}
 
 
 def test_a_copy_one_folder_deeper_is_refused_and_displaces_no_original(tmp_path):

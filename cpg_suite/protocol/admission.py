@@ -1442,25 +1442,31 @@ def _copy_refusal(run_dir: str, version: int | None, kept: list, base: str = "")
     return None, fingerprint
 
 
-# A configuration's name trained again under a later benchmark version: the same name, or
-# the earlier one's with `_v<n>` (K50_n0.8_e2_v1 and K50_n0.8_e2, cpg_v1 and cpg).
-_VERSIONED = re.compile(r"^(?P<config>.+?)(?:_v[1-9][0-9]*)?_seed(?P<seed>[0-9]+)$")
+# A configuration's run kept under its version-n name when it was trained again under a
+# later version: `<config>_v<n>_seed<S>` beside `<config>_seed<S>` (K50_n0.8_e2_v1 and
+# K50_n0.8_e2, cpg_v1 and cpg).
+_VERSIONED = re.compile(r"^(?P<config>.+)_v(?P<version>[1-9][0-9]*)_seed(?P<seed>[0-9]+)$")
 
 
 def _retrained(run_dir: str, earlier: str) -> bool:
-    """Whether two runs are one method's configuration and seed trained under two
-    versions (`_VERSIONED`): such a pair may hold the same gait (six shipped CEM seeds
-    trained to it under both: the limit never bit). Any other pair that does is a copy,
-    whichever physics it claims to have trained under (an outside attack of 2026-11-29
-    relabelled version-1 runs as version 2 under another method and was ranked)."""
+    """Whether two runs are one method's configuration and seed trained under two versions
+    of other training physics: one named `<config>_v<n>_seed<S>` and trained under version
+    n, the other `<config>_seed<S>` (`_VERSIONED`). Such a pair may hold the same gait (six
+    shipped CEM seeds trained to it under both: the limit never bit); any other pair that
+    does is a copy, whatever physics each claims (an outside attack of 2026-11-29 relabelled
+    version-1 runs as version 2 under another name and was ranked)."""
     (method, _, name), (their_method, _, their_name) = _tail(run_dir), _tail(earlier)
-    ours, theirs = _VERSIONED.match(name), _VERSIONED.match(their_name)
-    return (
-        method == their_method
-        and ours is not None
-        and theirs is not None
-        and ours.group("config", "seed") == theirs.group("config", "seed")
-    )
+    if method != their_method:
+        return False
+    for old, new, old_dir in ((name, their_name, run_dir), (their_name, name, earlier)):
+        kept = _VERSIONED.match(old)
+        if (
+            kept is not None
+            and new == f"{kept['config']}_seed{kept['seed']}"
+            and trained_version(old_dir) == int(kept["version"])
+        ):
+            return True
+    return False
 
 
 def _trained_as(run_dir: str) -> int:
