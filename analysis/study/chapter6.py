@@ -485,6 +485,25 @@ def cem_10a(ev: Evidence) -> v.Verdict:
 
 @rule("CEM-10b")
 def cem_10b(ev: Evidence) -> v.Verdict:
+    """'Not compensate' (seed L1324) at equal cost: D of K 70 and K 100 after as many
+    training trials as K 50's 50 rounds (`EQUAL_TRIALS`) against K 50's, with the gain per
+    extra sample (the first criterion) beside (revised after the seventh reading of
+    2026-11-29)."""
+    parts = []
+    for k, rounds in EQUAL_TRIALS.items():
+        x, _ = paired(ev, k, "K50_n0.8_e2", lambda r, n=rounds: best(r, n))
+        _, y = paired(ev, k, "K50_n0.8_e2", best)
+        parts.append(v.paired_greater(y, x, f"D(K50, 50 rounds) − D({k}, {rounds} rounds)"))
+    found = v.joined(parts)
+    return v.Verdict(
+        found.verdict,
+        f"{found.evidence} [gain per extra sample, beside: {cem_10b_gain(ev).evidence}]",
+        found.why,
+    )
+
+
+def cem_10b_gain(ev: Evidence) -> v.Verdict:
+    """CEM-10b as first judged: the gain per extra sample per round, g, above 0."""
     runs = {s: {r.seed: best(r) for r in ev.cem(s)} for s in ("K20_n0.8_e2", "K50_n0.8_e2")}
     parts = []
     for k, name in ((70, "K70_n0.8_e2"), (100, "K100_n0.8_e2")):
@@ -785,6 +804,16 @@ def cem_19b(ev: Evidence) -> v.Verdict:
     if all(a == never and b == never for a, b in zip(e3, e4)):
         return v.Verdict(v.INCONCLUSIVE, text, "neither falls without noise: no onsets to order")
     return v.majority([a > b for a, b in zip(e3, e4)], text)
+
+
+@rule("CEM-19c")
+def cem_19c(ev: Evidence) -> v.Verdict:
+    """Whether the means of elites 3 and 4 fall at all without noise: the thesis' two runs
+    both did (seed L1197), pooled against our ten (added after the seventh reading of
+    2026-11-29: the rounds CEM-19a and b order need falls)."""
+    runs = [*ev.cem("K10_n0_e3"), *ev.cem("K10_n0_e4")]
+    fell = [bool(r.progress["mean_fell"].to_numpy().any()) for r in runs]
+    return v.pooled_event(fell, 2, 2, "elites 3 and 4 without noise, a mean that falls")
 
 
 @rule("CEM-20")

@@ -36,6 +36,9 @@ READINGS = {
     "elites 3 and 4 never fell two rounds running, with or without noise; cause not found",
     "CEM-6b": "our five runs per setting against the thesis' one (seed L1207): elites 3 and 4 fall "
     "no more often than 1 and 2 here (without noise no mean fell at all); cause not found",
+    "CEM-19c": "our ten runs against the thesis' two (seed L1197): without noise no mean of "
+    "elites 3 or 4 fell in any of 50 rounds here, where both of the thesis' did (from rounds 3 "
+    "and 25); cause not found (as CEM-6a)",
     "CEM-8a": "our five runs against the thesis' one (seed L1215): noise 1.0 did a little better "
     "than 0.8 (the best-trial reading cannot tell them apart)",
     "CEM-9c": "our five runs against the thesis' one (8 against 42 rounds, L1270): K 20 reaches "
@@ -75,6 +78,12 @@ NOT_REPRODUCED = {
     "future rewards not taken into account) does not bind our pole, on which the per-step "
     "reward −θ² already ranks the pushes within one 20 ms control step (PB-2's reason); that "
     "last cause is not measured",
+    "PB-10a": "the pole's masses, length and control step, which the thesis does not give "
+    "(seed L750): over Fig. 4.9's 5000 iterations (seed L772) our pole balances at 0.5 N (its "
+    "last fall by step 315-1979) but not yet at 4 N (44-60 falls in steps 2500-5000, in 5 of "
+    "5 seeds); at 4 N it learns later, its last fall at steps 7446-11159, after which it "
+    "balances: 5 of 5 seeds over 20 000 steps (judged there before the seventh reading of "
+    "2026-11-29)",
     "PB-5a": "the pole's masses, length and control step, which the thesis does not give (seed "
     "L750), not the force: 20 angle bins without the angular velocity never balance our pole "
     "at either force the thesis names (seed L772: 0.5 N and 4 N, 0 of 5 seeds each; longest "

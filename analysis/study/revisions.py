@@ -333,3 +333,28 @@ for _id, _verdict in (
 def pb_12b(ev: Evidence) -> v.Verdict:
     """Was: alike early where the per-α intervals overlap pairwise."""
     return chapter4.pb_12b_by_overlap(ev)
+
+
+# --- revised after the seventh reading (a second reader's, 2026-11-29) ----------------------
+# PB-10a was judged on 20 000-step runs where the thesis' figure shows 5000 iterations;
+# PB-10b's swing at 4 N was mostly its falls, our 4 N not yet balancing at 5000 steps;
+# CEM-10b tested diminishing returns, which Table 6.3 shows below 50 too, not "the extra
+# trials do not compensate" (judged now at equal training trials).
+
+
+@first("PB-10a")
+def pb_10a(ev: Evidence) -> v.Verdict:
+    """Was: lasting balance over 20 000 steps (no fall in the last 5000)."""
+    return chapter4.pb_10a_20000(ev)
+
+
+@first("PB-10b")
+def pb_10b(ev: Evidence) -> v.Verdict:
+    """Was: the 5000-step runs' second half, falls included."""
+    return chapter4.pb_10b_5000(ev)
+
+
+@first("CEM-10b")
+def cem_10b(ev: Evidence) -> v.Verdict:
+    """Was: the gain per extra sample per round (g) drops beyond 50."""
+    return chapter6.cem_10b_gain(ev)

@@ -13,6 +13,7 @@ generator seed, so a verdict is the same bits every time).
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections import Counter
 from collections.abc import Sequence
 
@@ -152,6 +153,34 @@ def one_run(flags: Sequence[bool], label: str) -> Verdict:
         f"one run's event: {k} of {n} seeds put its rate below {bound * 100:.0f} % (95 %), "
         "which the thesis' single run showing it does not contradict",
     )
+
+
+def fisher_greater(k_a: int, n_a: int, k_b: int, n_b: int) -> float:
+    """One-sided Fisher exact test that group a's rate exceeds group b's: the chance, with
+    the k_a + k_b events shared out at random over the n_a + n_b runs, that a gets at least
+    k_a of them (the hypergeometric upper tail)."""
+    events, runs = k_a + k_b, n_a + n_b
+    tail = sum(
+        math.comb(events, i) * math.comb(runs - events, n_a - i)
+        for i in range(k_a, min(events, n_a) + 1)
+    )
+    return tail / math.comb(runs, n_a)
+
+
+def pooled_event(flags: Sequence[bool], theirs: int, their_runs: int, label: str) -> Verdict:
+    """An event the thesis saw in `theirs` of its `their_runs` runs, against our runs
+    (`flags`): holds if at least 4 in 5 of ours show it; fails if the thesis' count is
+    beyond what our rate explains (`fisher_greater` below 0.05); else inconclusive (added
+    after the seventh reading of 2026-11-29: one run's event pooled over the runs the
+    thesis reports it of)."""
+    k, n = int(sum(bool(f) for f in flags)), len(flags)
+    p = fisher_greater(theirs, their_runs, k, n)
+    text = f"{label}: ours {k} of {n} runs, the thesis' {theirs} of {their_runs} (Fisher p {p:.3f})"
+    if k >= 0.8 * n:
+        return Verdict(HOLDS, text)
+    if p < 0.05:
+        return Verdict(FAILS, text, f"the thesis' {theirs} of {their_runs} is unlikely at our rate")
+    return Verdict(INCONCLUSIVE, text, "our runs' rate does not rule out the thesis' count")
 
 
 def _rate_bound(k: int, n: int) -> float:

@@ -100,12 +100,44 @@ def alg41_walk(
     Returns:
       The cells visited, `start` first.
     """
-    path = [start]
+    return _alg41_moves(model, history, gamma, start, rng)[0]
+
+
+def _alg41_moves(
+    model: models.TabularModel,
+    history: list[np.ndarray],
+    gamma: float,
+    start: int,
+    rng: np.random.RandomState | None,
+) -> tuple[list[int], list[int]]:
+    """`alg41_walk`'s cells and the actions taken between them."""
+    path, actions = [start], []
     for values in history[:-1]:
         q = planning.action_values(model, values, gamma)[path[-1]]
         a = argmax_ties(q, rng, None if rng is not None else model.tie_order)
+        actions.append(int(a))
         path.append(model.intended_successor(path[-1], a))
-    return path
+    return path, actions
+
+
+def alg41_cycle_rewards(model: models.TabularModel, gamma: float) -> list[float]:
+    """CR-4a's measure: per tie-breaking seed (`tokic_alg41`'s), the reward of one period
+    of the cycle an Alg. 4.1 walk of `ALG41_MOVES` moves from (0, 0) ends in (> 0: it
+    walks forward)."""
+    history = planning.value_iteration(model, gamma, sweeps=ALG41_MOVES).history
+    found = []
+    for seed in range(ALG41_SEEDS):
+        rng = None if seed == 0 else np.random.RandomState(seed)
+        path, actions = _alg41_moves(model, history, gamma, model.start_state, rng)
+        last = len(path) - 1
+        period = next(k for k in range(1, last + 1) if path[last - k] == path[last])
+        found.append(
+            sum(
+                float(model.rewards[path[i], actions[i], path[i + 1]])
+                for i in range(last - period, last)
+            )
+        )
+    return found
 
 
 def final_cycle(path: list[int]) -> tuple[frozenset[int], int]:
@@ -180,6 +212,7 @@ def tokic() -> dict:
             "cycle_length": c.length,
             "last_policy_change": _last_change(model, result.history, g),
             "sweeps_to_1e-6": planning.value_iteration(model, g, tol=1e-6).iterations,
+            "alg41_cycle_rewards": alg41_cycle_rewards(model, g),
         }
     pi_iterations, pi_one_sweep, pi_same = [], [], []
     final = vi.values[cycle.states]
