@@ -81,7 +81,8 @@ LEADERBOARD_FIELDS = [
 # Who vouches for a row of the study's metrics: verify, which re-makes the DARwIn walk's
 # in-sample best from the run's gait; for the other tasks, nothing but the run's own
 # summary.json (no re-scorer exists for them: re-run the config's command to check).
-CHECKED_BY_VERIFY, UNCHECKED = "verify", "nothing: the run's own summary.json"
+CHECKED_BY_VERIFY = "verify, which re-makes it (the board reads it as stored)"
+UNCHECKED = "nothing: the run's own summary.json"
 
 
 PRESET_METHOD = (
@@ -138,12 +139,6 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
       `(found, skipped)`: one dict per run or part of one; one line per file skipped.
     """
     found, skipped = [], []
-    try:
-        ledger = admission.read_ledger(ledger_path(root))
-    except (OSError, ValueError) as e:  # a ledger the board may not read vouches for none
-        ledger = {}
-        why = admission.shown_reason(f"{type(e).__name__}: {e}")
-        skipped.append(f"{admission.shown_name(ledger_path(root))}: {why}; no run on record")
     for dirpath, dirnames, filenames in walk_sorted(root):
         for name in dirnames:  # os.walk lists a link to a folder here, and never enters it
             if os.path.islink(os.path.join(dirpath, name)):
@@ -155,8 +150,8 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
                 _add_incomplete(dirpath, found)
             continue
         path = os.path.join(dirpath, "summary.json")
-        parts = os.path.normpath(dirpath).split(os.sep)
-        if len(parts) < 3:
+        parts = os.path.normpath(os.path.abspath(dirpath)).split(os.sep)  # `.`, `..` named
+        if len(parts) < 4:
             skipped.append(f"{admission.shown_name(path)}: not <method>/<task>/<run>")
             continue
         method, task, run_name = parts[-3], parts[-2], parts[-1]
@@ -185,13 +180,30 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
                 "summary": summary,
                 "dir": dirpath,
                 "trained_version": trained_version(config_path),
-                "rescored_on": admission.rescored_in_full(dirpath, ledger),
             }
         )
-    for run in found:  # the root's ledger, which `admit` judges every run by
+    folders = [run for run in found if not run.get("linked") and run["method"] != PRESET_METHOD]
+    depth = {run["dir"]: _depth(run["dir"], root) for run in folders}
+    tree = max((d for d in depth.values() if d <= 3), default=3)  # the runs' own depth
+    path = ledger_path(os.path.join(root, *[os.pardir] * (3 - tree)))
+    try:
+        ledger = admission.read_ledger(path)
+    except (OSError, ValueError) as e:  # a ledger the board may not read vouches for none
+        ledger = {}
+        why = admission.shown_reason(f"{type(e).__name__}: {e}")
+        skipped.append(f"{admission.shown_name(path)}: {why}; no run on record")
+    for run in found:  # the tree's ledger, which `admit` judges every run by
         run["board_ledger"] = ledger
-        run["too_deep"] = len(os.path.relpath(run["dir"], root).split(os.sep)) > 3
+        run["misplaced"] = depth.get(run["dir"], tree) != tree
+        if run["summary"] and not run.get("incomplete"):
+            run["rescored_on"] = admission.rescored_in_full(run["dir"], ledger)
     return found, skipped
+
+
+def _depth(run_dir: str, root: str) -> int:
+    """How many folders below `root` a run lies (0: `root` is the run)."""
+    rel = os.path.relpath(run_dir, root)
+    return 0 if rel == os.curdir else len(os.path.normpath(rel).split(os.sep))
 
 
 def ledger_path(root: str) -> str:
@@ -203,8 +215,8 @@ def _add_incomplete(dirpath: str, found: list[dict]) -> None:
     """A folder that holds part of a run (or is a submission's half-written folder) joins
     the runs found with no summary: the DARwIn-OP board lists it as not admitted, with
     what it lacks (`admission.run_refusal`), and no other table counts it."""
-    parts = os.path.normpath(dirpath).split(os.sep)
-    if len(parts) < 3:
+    parts = os.path.normpath(os.path.abspath(dirpath)).split(os.sep)
+    if len(parts) < 4:
         return
     match = _SEED.match(parts[-1])
     found.append(
@@ -645,7 +657,7 @@ def admit(
     if ledger is None:  # runs found under one root (`find_runs`) carry its ledger
         ledger = next((run["board_ledger"] for run in found if "board_ledger" in run), None)
     darwin = [run for run in found if is_darwin_run(run)]
-    judged = [run["dir"] for run in darwin if not _score_card(run) and not run.get("too_deep")]
+    judged = [run["dir"] for run in darwin if not _score_card(run) and not run.get("misplaced")]
     reasons = admission.refusals(judged, board, ledger)
     admitted, refused = [], []
     dirs = [os.path.abspath(run["dir"]) for run in darwin if not _score_card(run)]
@@ -655,7 +667,7 @@ def admit(
             PRESET_REFUSAL
             if _score_card(run)
             else admission.DEPTH_REFUSAL
-            if run.get("too_deep")
+            if run.get("misplaced")
             else reasons.get(run["dir"])
         )
         if reason is None:

@@ -512,7 +512,7 @@ def _edit_summary(run: str, change) -> None:
         json.dump(summary, f)
 
 
-@pytest.mark.parametrize("depth", [33, 900, 100_000])
+@pytest.mark.parametrize("depth", [33, 900, 20_000])
 def test_a_run_file_nested_too_deep_is_refused_in_one_line_and_the_board_goes_on(tmp_path, depth):
     """An outside attack of 2026-11-29: an extra key nested 900 deep in a test card's row
     and its history card's sent the card comparison past Python's recursion limit, and the
@@ -615,6 +615,7 @@ V1_RUN = os.path.join(RUNS, "ppo", "darwin_walk", "cpg_v1_seed0")
         ("ppo", "other_seed0"),
         ("ppo", "cpg_v7_seed0"),
         ("ppo", "cpg_v2_seed0"),
+        ("ppo", "cpg_v1_v2_seed0"),  # helper-46: `<config>` cpg_v1, "re-run" of cpg_v1_seed0
     ],
 )
 def test_a_version_1_run_relabelled_as_a_later_version_under_another_name_is_a_copy(
@@ -694,3 +695,77 @@ def test_a_trial_table_past_its_size_is_refused_before_its_rows_are_built(tmp_pa
         if n.startswith("trials")
     )
     assert largest * 10 < admission.MAX_TRIAL_TABLE_CHARS
+
+
+def _ledger_for(tmp_path, runs: list[str]) -> None:
+    """A ledger beside the tree recording `runs` as re-scored in full and reproduced with
+    their present files, as `verify --record` writes it."""
+    rows = [
+        f"{admission.run_key(run)},{admission.run_digest(run)},full,250,reproduced,x,x"
+        for run in runs
+    ]
+    text = ",".join(admission.LEDGER_FIELDS) + "\n" + "\n".join(rows) + "\n"
+    (tmp_path / admission.LEDGER).write_text(text, encoding="utf-8")
+
+
+@pytest.mark.parametrize("given", ["runs", "runs/ppo", "runs/ppo/darwin_walk"])
+def test_the_ledger_beside_the_tree_is_read_whichever_folder_of_it_the_board_is_given(
+    tmp_path, given
+):
+    """helper-46 (2026-11-29): given a method's or a task's folder, the board read the ledger
+    beside that folder, inside the tree, so a copy that says it started first displaced the
+    original the ledger records. The board reads the ledger beside the tree its runs lie in."""
+    source = os.path.join(RUNS, "ppo", "darwin_walk", "joints_seed1")
+    original = _copy(tmp_path, source, "ppo", "joints_seed1")
+    copy = _copy(tmp_path, source, "ppo", "early_seed1")
+    path = os.path.join(copy, "config.json")
+    config = json.loads(open(path, encoding="utf-8").read())
+    config["environment"]["started_utc"] = "2000-01-01T00:00:00Z"
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(config, f)
+    _ledger_for(tmp_path, [original])
+    found, _ = leaderboard.find_runs(str(tmp_path / given))
+    admitted, refused = leaderboard.admit(found)
+    assert [r["dir"] for r in admitted] == [original]
+    (row,) = refused
+    assert row["reason"].startswith("a copy of ppo/darwin_walk/joints_seed1")
+
+
+@pytest.mark.parametrize("where", ["inside", "beside"])
+def test_a_run_is_named_by_its_place_however_its_folder_is_written(tmp_path, monkeypatch, where):
+    """helper-46 (2026-11-29): `--runs=.` from inside a task's folder found no run (its
+    relative path held fewer than three names), and `--runs=../darwin_walk` named the
+    method `..`. Names come from the absolute path."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+    if where == "inside":
+        monkeypatch.chdir(os.path.dirname(run))
+        root = "."
+    else:
+        os.makedirs(tmp_path / "runs" / "cem" / "other")
+        monkeypatch.chdir(tmp_path / "runs" / "cem" / "other")
+        root = os.path.join(os.pardir, "darwin_walk")
+    found, skipped = leaderboard.find_runs(root)
+    assert skipped == []
+    (one,) = found
+    named = (one["method"], one["task"], one["config"], one["seed"])
+    assert named == ("cem", "darwin_walk", "K50_n0.8_e2", 0)
+    admitted, refused = leaderboard.admit(found)
+    assert refused == [] and len(admitted) == 1
+
+
+def test_a_json_file_past_its_size_is_refused_before_it_is_parsed(tmp_path):
+    """helper-46 (2026-11-29): a summary.json padded to 64 MiB of empty objects took 7
+    minutes and 4.9 GB, and was admitted. A run's JSON over `files.MAX_JSON_BYTES` is
+    refused when read; the largest shipped is far below it."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+    _edit_summary(run, lambda s: s.update(junk=[{}] * (files_module.MAX_JSON_BYTES // 3)))
+    reason = admission.run_refusal(run)
+    assert reason.startswith("unreadable run files (ValueError: summary.json holds ")
+    assert reason.endswith(f"over the {files_module.MAX_JSON_BYTES} a run's JSON file may hold)")
+    largest = max(
+        os.path.getsize(os.path.join(d, n))
+        for d, _, names in os.walk(RUNS)
+        for n in names
+        if n.endswith(".json")
+    )
+    assert largest * 20 < files_module.MAX_JSON_BYTES

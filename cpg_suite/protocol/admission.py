@@ -165,12 +165,13 @@ def name_refusal(name: str, what: str = "its folder") -> str | None:
 
 
 LINK_REFUSAL = "a symbolic link, not a folder of its own: the board reads no run through a link"
-# A run found deeper than <method>/<task>/<run> under the tree the board was given: its
-# last three names could pass for another run's, whose ledger row (`run_key`) it would
-# share (an outside attack of 2026-11-29 had such a copy displace its original).
+# A run found at another depth than the tree's runs (`<method>/<task>/<run>` under a tree;
+# the board may be given a tree, a method's, a task's or a run's folder): its last three
+# names could pass for another run's, whose ledger row (`run_key`) it would share (an
+# outside attack of 2026-11-29 had a copy one folder deeper displace its original).
 DEPTH_REFUSAL = (
-    "deeper than <method>/<task>/<run> under the run tree: the board counts a run by its "
-    "place there"
+    "not <method>/<task>/<run> in the run tree the board was given (its other runs lie at "
+    "another depth): the board counts a run by its place there"
 )
 
 
@@ -1446,24 +1447,29 @@ def _copy_refusal(run_dir: str, version: int | None, kept: list, base: str = "")
 # later version: `<config>_v<n>_seed<S>` beside `<config>_seed<S>` (K50_n0.8_e2_v1 and
 # K50_n0.8_e2, cpg_v1 and cpg).
 _VERSIONED = re.compile(r"^(?P<config>.+)_v(?P<version>[1-9][0-9]*)_seed(?P<seed>[0-9]+)$")
+_VERSIONED_CONFIG = re.compile(r"_v[0-9]+$")  # a configuration that itself names a version
 
 
 def _retrained(run_dir: str, earlier: str) -> bool:
     """Whether two runs are one method's configuration and seed trained under two versions
     of other training physics: one named `<config>_v<n>_seed<S>` and trained under version
-    n, the other `<config>_seed<S>` (`_VERSIONED`). Such a pair may hold the same gait (six
+    n, the other `<config>_seed<S>`, trained under a later one (`_VERSIONED`; `<config>`
+    itself names no version: `K50_s1_v1_v2` is no re-run of `K50_s1_v1`, a second outside
+    attack of 2026-11-29). Such a pair may hold the same gait (six
     shipped CEM seeds trained to it under both: the limit never bit); any other pair that
     does is a copy, whatever physics each claims (an outside attack of 2026-11-29 relabelled
     version-1 runs as version 2 under another name and was ranked)."""
     (method, _, name), (their_method, _, their_name) = _tail(run_dir), _tail(earlier)
     if method != their_method:
         return False
-    for old, new, old_dir in ((name, their_name, run_dir), (their_name, name, earlier)):
+    pairs = ((name, their_name, run_dir, earlier), (their_name, name, earlier, run_dir))
+    for old, new, old_dir, new_dir in pairs:
         kept = _VERSIONED.match(old)
         if (
             kept is not None
+            and _VERSIONED_CONFIG.search(kept["config"]) is None  # not `<x>_v1_v2`
             and new == f"{kept['config']}_seed{kept['seed']}"
-            and trained_version(old_dir) == int(kept["version"])
+            and trained_version(old_dir) == int(kept["version"]) < trained_version(new_dir)
         ):
             return True
     return False

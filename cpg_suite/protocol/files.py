@@ -87,6 +87,10 @@ def _finite_float(text: str) -> float:
     return value
 
 
+# The most a run's JSON file may hold: the largest shipped holds 30,927 bytes (a PPO run's
+# summary.json); a summary padded to 64 MiB of empty objects took the board 7 minutes and
+# 4.9 GB to read (an outside attack of 2026-11-29). A choice: 1 MiB, 33 times the largest.
+MAX_JSON_BYTES = 2**20
 # How deep a run's JSON may nest: the deepest shipped file nests 7 levels; a deeper one
 # would send the board's recursive card comparisons past Python's recursion limit (an
 # outside attack of 2026-11-29). A choice, with room to spare.
@@ -108,14 +112,20 @@ def _depth(value: object) -> int:
 
 def read_json(path: str) -> object:
     """A run's JSON file, strictly: a regular file (`refusal`), each key once per object,
-    no NaN or Infinity (nor a number too large for a float), nesting at most
-    `MAX_JSON_DEPTH` lists and objects deep.
+    no NaN or Infinity (nor a number too large for a float), at most `MAX_JSON_BYTES` long
+    and nesting at most `MAX_JSON_DEPTH` lists and objects deep.
 
     Raises:
       OSError: If it cannot be read.
       ValueError: If it may not be read, or is not strict JSON (the message says why).
     """
-    text = read_bytes(path).decode("utf-8")
+    data = read_bytes(path)
+    if len(data) > MAX_JSON_BYTES:
+        raise ValueError(
+            f"{os.path.basename(path)} holds {len(data)} bytes, over the {MAX_JSON_BYTES} a "
+            "run's JSON file may hold"
+        )
+    text = data.decode("utf-8")
     too_deep = f"{os.path.basename(path)}: nested more than {MAX_JSON_DEPTH} lists and objects deep"
     try:
         value = json.loads(
