@@ -688,13 +688,19 @@ def test_a_trial_table_past_its_size_is_refused_before_its_rows_are_built(tmp_pa
     reason = admission.run_refusal(run)
     assert reason.startswith("unreadable run files (ValueError: trials.csv holds ")
     assert reason.endswith(f"over the {admission.MAX_TRIAL_TABLE_CHARS} a trial table may hold)")
-    largest = max(
+    assert _largest_shipped(lambda name: name.startswith("trials")) * 10 < (
+        admission.MAX_TRIAL_TABLE_CHARS
+    )
+
+
+def _largest_shipped(kind) -> int:
+    """The size in bytes of the largest shipped run file whose name is of `kind`."""
+    return max(
         os.path.getsize(os.path.join(d, n))
         for d, _, names in os.walk(RUNS)
         for n in names
-        if n.startswith("trials")
+        if kind(n)
     )
-    assert largest * 10 < admission.MAX_TRIAL_TABLE_CHARS
 
 
 def _ledger_for(tmp_path, runs: list[str]) -> None:
@@ -762,10 +768,4 @@ def test_a_json_file_past_its_size_is_refused_before_it_is_parsed(tmp_path):
     reason = admission.run_refusal(run)
     assert reason.startswith("unreadable run files (ValueError: summary.json holds ")
     assert reason.endswith(f"over the {files_module.MAX_JSON_BYTES} a run's JSON file may hold)")
-    largest = max(
-        os.path.getsize(os.path.join(d, n))
-        for d, _, names in os.walk(RUNS)
-        for n in names
-        if n.endswith(".json")
-    )
-    assert largest * 20 < files_module.MAX_JSON_BYTES
+    assert _largest_shipped(lambda name: name.endswith(".json")) * 20 < files_module.MAX_JSON_BYTES
