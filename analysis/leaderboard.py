@@ -182,10 +182,7 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
                 "trained_version": trained_version(config_path),
             }
         )
-    folders = [run for run in found if not run.get("linked") and run["method"] != PRESET_METHOD]
-    depth = {run["dir"]: _depth(run["dir"], root) for run in folders}
-    tree = max((d for d in depth.values() if d <= 3), default=3)  # the runs' own depth
-    path = ledger_path(os.path.join(root, *[os.pardir] * (3 - tree)))
+    path = ledger_path(root)
     try:
         ledger = admission.read_ledger(path)
     except (OSError, ValueError) as e:  # a ledger the board may not read vouches for none
@@ -194,7 +191,11 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
         skipped.append(f"{admission.shown_name(path)}: {why}; no run on record")
     for run in found:  # the tree's ledger, which `admit` judges every run by
         run["board_ledger"] = ledger
-        run["misplaced"] = depth.get(run["dir"], tree) != tree
+        run["misplaced"] = (
+            not run.get("linked")
+            and run["method"] != PRESET_METHOD
+            and _depth(run["dir"], root) != 3
+        )
         if run["summary"] and not run.get("incomplete"):
             run["rescored_on"] = admission.rescored_in_full(run["dir"], ledger)
     return found, skipped

@@ -150,7 +150,10 @@ def test_a_learner_s_budget_may_not_contradict_its_own_counts(tmp_path):
     _write(run / "summary.json", {**summary, "env_steps": 1})
     assert "fewer than its 5002 training episodes" in admission.run_refusal(str(run))
     _write(run / "summary.json", {**summary, "env_steps": 1, "evaluations": 1, "sim_steps": 0})
-    assert "more than its 0 physics steps" in admission.run_refusal(str(run))
+    assert admission.run_refusal(str(run)) == (
+        "summary.json claims 0 physics steps (sim_steps), fewer than its 1 training control "
+        "steps take (8 each at least)"
+    )
 
 
 def test_a_learner_past_its_budget_by_more_than_a_rollout_counts_by_its_steps():

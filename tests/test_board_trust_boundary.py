@@ -584,11 +584,13 @@ def test_a_ledger_the_board_may_not_read_vouches_for_none_and_the_board_goes_on(
 
 
 def _relabelled(source: str, dest: str, version: int = 2) -> None:
-    """A copy of a version-1 run that claims to have trained under `version`: its config
-    says so, and its cards and tables of earlier versions are gone."""
+    """A copy of a version-1 run that claims to have trained under `version` (on the task
+    of the folder it is copied to): its config says so, and its cards and tables of earlier
+    versions are gone."""
     shutil.copytree(source, dest)
     config = json.loads(open(os.path.join(dest, "config.json"), encoding="utf-8").read())
     config["settings"]["benchmark_version"] = version
+    config["settings"]["task"] = os.path.basename(os.path.dirname(dest))
     with open(os.path.join(dest, "config.json"), "w", encoding="utf-8") as f:
         json.dump(config, f)
 
@@ -715,12 +717,13 @@ def _ledger_for(tmp_path, runs: list[str]) -> None:
 
 
 @pytest.mark.parametrize("given", ["runs", "runs/ppo", "runs/ppo/darwin_walk"])
-def test_the_ledger_beside_the_tree_is_read_whichever_folder_of_it_the_board_is_given(
-    tmp_path, given
-):
+def test_the_board_reads_the_tree_it_is_given_and_the_ledger_beside_it(tmp_path, given):
     """helper-46 (2026-11-29): given a method's or a task's folder, the board read the ledger
     beside that folder, inside the tree, so a copy that says it started first displaced the
-    original the ledger records. The board reads the ledger beside the tree its runs lie in."""
+    original the ledger records; helper-47: taking the tree's depth from its runs let a decoy
+    folder move it. The board reads `<method>/<task>/<run>` under the folder it is given
+    and the ledger beside that folder: given a method's or a task's folder, every run is
+    refused, with why, and none displaces another."""
     source = os.path.join(RUNS, "ppo", "darwin_walk", "joints_seed1")
     original = _copy(tmp_path, source, "ppo", "joints_seed1")
     copy = _copy(tmp_path, source, "ppo", "early_seed1")
@@ -732,16 +735,40 @@ def test_the_ledger_beside_the_tree_is_read_whichever_folder_of_it_the_board_is_
     _ledger_for(tmp_path, [original])
     found, _ = leaderboard.find_runs(str(tmp_path / given))
     admitted, refused = leaderboard.admit(found)
+    if given != "runs":
+        assert admitted == [] and {r["reason"] for r in refused} == {admission.DEPTH_REFUSAL}
+        return
     assert [r["dir"] for r in admitted] == [original]
+    assert admitted[0]["rescored_on"] == "x"  # the ledger's date column
     (row,) = refused
     assert row["reason"].startswith("a copy of ppo/darwin_walk/joints_seed1")
+
+
+@pytest.mark.parametrize(
+    "decoy",
+    ["ppo/notes/x/.a.partial-0", "ppo/evil/darwin_walk/joints_seed2", "ppo/joints_seed3"],
+)
+def test_a_decoy_folder_at_another_depth_is_refused_and_moves_nothing(tmp_path, decoy):
+    """helper-47 (2026-11-29): an empty half-written folder, or a run one level deeper, moved
+    the depth the board read the tree at, and with it the ledger, so honest runs were
+    refused and a planted ledger read. A folder at another depth moves nothing now."""
+    source = os.path.join(RUNS, "ppo", "darwin_walk", "joints_seed1")
+    original = _copy(tmp_path, source, "ppo", "joints_seed1")
+    _ledger_for(tmp_path, [original])
+    shutil.copytree(source, tmp_path / "runs" / decoy)
+    (tmp_path / "runs" / admission.LEDGER).write_text("forged", encoding="utf-8")
+    found, _ = leaderboard.find_runs(str(tmp_path / "runs"))
+    admitted, refused = leaderboard.admit(found)
+    assert [r["dir"] for r in admitted] == [original] and admitted[0]["rescored_on"] == "x"
+    assert [r["reason"] for r in refused] in ([], [admission.DEPTH_REFUSAL])
 
 
 @pytest.mark.parametrize("where", ["inside", "beside"])
 def test_a_run_is_named_by_its_place_however_its_folder_is_written(tmp_path, monkeypatch, where):
     """helper-46 (2026-11-29): `--runs=.` from inside a task's folder found no run (its
     relative path held fewer than three names), and `--runs=../darwin_walk` named the
-    method `..`. Names come from the absolute path."""
+    method `..`. Names come from the absolute path, and the run is listed as refused (a
+    task's folder is not a tree), not left out."""
     run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
     if where == "inside":
         monkeypatch.chdir(os.path.dirname(run))
@@ -755,8 +782,9 @@ def test_a_run_is_named_by_its_place_however_its_folder_is_written(tmp_path, mon
     (one,) = found
     named = (one["method"], one["task"], one["config"], one["seed"])
     assert named == ("cem", "darwin_walk", "K50_n0.8_e2", 0)
-    admitted, refused = leaderboard.admit(found)
-    assert refused == [] and len(admitted) == 1
+    admitted, (row,) = leaderboard.admit(found)  # a task's folder is not a tree: said so
+    assert admitted == [] and row["reason"] == admission.DEPTH_REFUSAL
+    assert row["method"] == "cem"
 
 
 def test_a_json_file_past_its_size_is_refused_before_it_is_parsed(tmp_path):
@@ -769,3 +797,42 @@ def test_a_json_file_past_its_size_is_refused_before_it_is_parsed(tmp_path):
     assert reason.startswith("unreadable run files (ValueError: summary.json holds ")
     assert reason.endswith(f"over the {files_module.MAX_JSON_BYTES} a run's JSON file may hold)")
     assert _largest_shipped(lambda name: name.endswith(".json")) * 20 < files_module.MAX_JSON_BYTES
+
+
+def test_a_version_1_run_relabelled_on_another_training_task_is_a_copy(tmp_path):
+    """helper-47 (2026-11-29): `ppo/darwin_walk_randomized/cpg_seed0`, a version-1
+    `ppo/darwin_walk/cpg_v1_seed0` relabelled as version 2 and as trained on another task,
+    passed as its re-run (the exemption ignored the task) and was ranked."""
+    runs = tmp_path / "runs"
+    original = runs / "ppo" / "darwin_walk" / "cpg_v1_seed0"
+    shutil.copytree(V1_RUN, original)
+    copy = runs / "ppo" / "darwin_walk_randomized" / "cpg_seed0"
+    _relabelled(V1_RUN, str(copy))
+    assert admission.refusals([str(copy)]) == {}
+    reasons = admission.refusals([str(original), str(copy)])
+    assert (
+        list(reasons) == [str(copy)] and "which trained under other physics" in reasons[str(copy)]
+    )
+
+
+def test_a_policy_whose_arrays_hold_too_many_values_is_refused_before_they_are_widened(
+    tmp_path,
+):
+    """helper-47 (2026-11-29): a 97 KB archive of one 8000 × 8000 boolean kernel, widened to
+    float64 by the policy and the copy check, cost 1.2 GB a run. An array, or an archive,
+    of more than `exported.MAX_VALUES` values is refused from its header."""
+    side = int(exported.MAX_VALUES**0.5) + 1
+    run = _policy_run(tmp_path, "kernel_1.npy", _npy(np.zeros((side, side), dtype=bool)))
+    assert "over the 2097152 values a run's arrays may hold" in _board_refusal(run)
+
+
+def test_a_learners_physics_steps_below_its_control_steps_are_refused(tmp_path):
+    """helper-47 (2026-11-29): a learner's `sim_steps` lowered to its `env_steps` showed a
+    budget 8 times smaller than it simulated. Each control step takes
+    `PHYSICS_STEPS_PER_CONTROL_STEP` physics steps, as every shipped learner claims."""
+    run = _copy(tmp_path, PPO_RUN, "ppo", os.path.basename(PPO_RUN))
+    _edit_summary(run, lambda s: s.update(sim_steps=s["env_steps"]))
+    assert _board_refusal(run).startswith(
+        "summary.json claims 2502656 physics steps (sim_steps), fewer than its 2502656 "
+        "training control steps take (8 each at least)"
+    )

@@ -165,13 +165,15 @@ def name_refusal(name: str, what: str = "its folder") -> str | None:
 
 
 LINK_REFUSAL = "a symbolic link, not a folder of its own: the board reads no run through a link"
-# A run found at another depth than the tree's runs (`<method>/<task>/<run>` under a tree;
-# the board may be given a tree, a method's, a task's or a run's folder): its last three
-# names could pass for another run's, whose ledger row (`run_key`) it would share (an
-# outside attack of 2026-11-29 had a copy one folder deeper displace its original).
+# A run found at another depth than `<method>/<task>/<run>` under the tree the board was
+# given: its last three names could pass for another run's, whose ledger row (`run_key`)
+# it would share (an outside attack of 2026-11-29 had a copy one folder deeper displace
+# its original); and the board reads the ledger beside the tree it is given, so a folder
+# inside the tree could not move which ledger is read (a third attack did, while the
+# board took the tree's depth from its runs).
 DEPTH_REFUSAL = (
-    "not <method>/<task>/<run> in the run tree the board was given (its other runs lie at "
-    "another depth): the board counts a run by its place there"
+    "not <method>/<task>/<run> under the run tree the board was given (give it the tree, "
+    "the folder above the methods' folders): the board counts a run by its place there"
 )
 
 
@@ -1146,6 +1148,9 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
                 f"its config's {given['population']} × {given['rounds']} rounds × "
                 f"{given['eval_seeds']} seeds"
             )
+        reason = _physics_refusal(summary, summary["evaluations"], "training trials")
+        if reason:
+            return reason
     if "total_steps" in settings:
         total = settings["total_steps"]
         if not _count(total) or total == 0:
@@ -1161,11 +1166,22 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
                 f"summary.json claims {steps} training control steps, fewer than its "
                 f"{summary['evaluations']} training episodes (evaluations)"
             )
-        if summary.get("sim_steps", steps) < steps:
-            return (
-                f"summary.json claims {steps} training control steps, more than its "
-                f"{summary['sim_steps']} physics steps (sim_steps)"
-            )
+        return _physics_refusal(summary, steps, "training control steps")
+    return None
+
+
+def _physics_refusal(summary: dict, control_steps: int, what: str) -> str | None:
+    """Why a summary's physics steps (`sim_steps`) fall short of its training: each control
+    step, or each trial's first, takes `PHYSICS_STEPS_PER_CONTROL_STEP` of them (a third
+    outside attack of 2026-11-29 showed a learner's budget 8 times smaller than it
+    simulated; the shipped learners claim exactly that many, the gait runs 590 times and
+    more). None: it does not, or it claims none."""
+    least = control_steps * PHYSICS_STEPS_PER_CONTROL_STEP
+    if summary.get("sim_steps", least) < least:
+        return (
+            f"summary.json claims {summary['sim_steps']} physics steps (sim_steps), fewer than "
+            f"its {control_steps} {what} take ({PHYSICS_STEPS_PER_CONTROL_STEP} each at least)"
+        )
     return None
 
 
@@ -1451,16 +1467,16 @@ _VERSIONED_CONFIG = re.compile(r"_v[0-9]+$")  # a configuration that itself name
 
 
 def _retrained(run_dir: str, earlier: str) -> bool:
-    """Whether two runs are one method's configuration and seed trained under two versions
-    of other training physics: one named `<config>_v<n>_seed<S>` and trained under version
-    n, the other `<config>_seed<S>`, trained under a later one (`_VERSIONED`; `<config>`
-    itself names no version: `K50_s1_v1_v2` is no re-run of `K50_s1_v1`, a second outside
-    attack of 2026-11-29). Such a pair may hold the same gait (six
-    shipped CEM seeds trained to it under both: the limit never bit); any other pair that
-    does is a copy, whatever physics each claims (an outside attack of 2026-11-29 relabelled
-    version-1 runs as version 2 under another name and was ranked)."""
-    (method, _, name), (their_method, _, their_name) = _tail(run_dir), _tail(earlier)
-    if method != their_method:
+    """Whether two runs are one method's configuration and seed, on one training task,
+    trained under two versions of other training physics: one named `<config>_v<n>_seed<S>`
+    and trained under version n, the other `<config>_seed<S>` and trained under a later
+    one (`_VERSIONED`; `<config>` names no version itself). Such a pair may hold the same
+    gait (six shipped CEM seeds trained to it under both: the limit never bit); any other
+    pair that does is a copy, whatever physics each claims. Three outside attacks of
+    2026-11-29 got relabelled version-1 runs ranked as another configuration, as
+    `K50_s1_v1_v2` beside `K50_s1_v1`, and on another training task."""
+    (method, task, name), (their_method, their_task, their_name) = _tail(run_dir), _tail(earlier)
+    if (method, task) != (their_method, their_task):  # a third attack moved it to a task
         return False
     pairs = ((name, their_name, run_dir, earlier), (their_name, name, earlier, run_dir))
     for old, new, old_dir, new_dir in pairs:

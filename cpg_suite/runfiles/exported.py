@@ -126,6 +126,11 @@ def read_npy(stream: BinaryIO, size: int, name: str) -> np.ndarray:
         )
     if any(n < 0 for n in shape):
         raise ValueError(f"{name}'s header gives the shape {shape}, with a negative length")
+    if math.prod(shape) > MAX_VALUES:
+        raise ValueError(
+            f"{name}'s header gives the shape {shape}, over the {MAX_VALUES} values a run's "
+            "arrays may hold"
+        )
     claimed = math.prod(shape) * dtype.itemsize
     present = size - stream.tell()
     if claimed != present:
@@ -140,6 +145,13 @@ def read_npy(stream: BinaryIO, size: int, name: str) -> np.ndarray:
     if fortran_order:
         return array.reshape(shape[::-1]).transpose()
     return array.reshape(shape)
+
+
+# The most values a run's arrays may hold, in one `.npy` or all of an archive's: the
+# largest shipped policy holds 80,000 and an action table 12,000; a 97 KB archive of one
+# 8000 × 8000 boolean array, widened to float64 by the policy and the copy check, cost
+# 1.2 GB (an outside attack of 2026-11-29). A choice: 2**21, 26 times the largest.
+MAX_VALUES = 2**21
 
 
 def load_npy(path: str) -> np.ndarray:
@@ -188,6 +200,10 @@ def load_npz(path: str) -> dict[str, np.ndarray]:
                 shown = member if member.isprintable() else repr(member)
                 with archive.open(info) as stream:
                     arrays[key] = read_npy(stream, info.file_size, f"{base}:{shown}")
+                if sum(a.size for a in arrays.values()) > MAX_VALUES:
+                    raise ValueError(
+                        f"{base} holds over the {MAX_VALUES} values a run's arrays may hold"
+                    )
     except (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, EOFError) as e:
         raise ValueError(f"{base} is not a readable .npz archive ({one_line(e)})") from None
     except (NotImplementedError, RuntimeError) as e:  # a compression or encryption
