@@ -836,3 +836,33 @@ def test_a_learners_physics_steps_below_its_control_steps_are_refused(tmp_path):
         "summary.json claims 2502656 physics steps (sim_steps), fewer than its 2502656 "
         "training control steps take (8 each at least)"
     )
+
+
+@pytest.mark.parametrize(
+    "decoy", ["zz/deep/tokic/b_seed0", "pole/pole_balance/b_seed0", "cem/darwin_walk/b_seed0"]
+)
+def test_a_summary_with_an_integer_past_64_bits_is_skipped_and_the_board_goes_on(tmp_path, decoy):
+    """helper-48 (2026-11-29): a decoy summary.json holding a 400-digit integer, at any depth
+    and of any task, made the study's metrics raise OverflowError, and the board wrote
+    nothing. JSON integers beyond 64 bits are refused when read."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", "K50_n0.8_e2_seed0")
+    folder = tmp_path / "runs" / decoy
+    folder.mkdir(parents=True)
+    (folder / "summary.json").write_text('{"cycle_reward": -1' + "0" * 400 + "}")
+    files = _board_files(tmp_path / "runs", tmp_path / "board")
+    (row,) = csv.DictReader(io.StringIO(files["darwin_leaderboard.csv"]))
+    assert row["config"] == "K50_n0.8_e2"
+    assert admission.run_refusal(run) is None
+
+
+def test_policy_code_past_its_size_is_refused_before_it_is_parsed(tmp_path):
+    """helper-48 (2026-11-29): a 4 MB policy_code.py of one-line statements cost 2.6 GB when
+    its syntax tree was built for the copy check. Code over `copies.MAX_CODE_CHARS` is
+    refused first."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", "K50_n0.8_e2_seed0")
+    os.remove(os.path.join(run, admission.GAIT))
+    os.remove(os.path.join(run, admission.IN_SAMPLE))
+    source = "import numpy as np\n\n\ndef make_policy():\n    return lambda o: np.zeros(12)\n"
+    with open(os.path.join(run, admission.CODE), "w", encoding="utf-8") as f:
+        f.write(source + "x = 1\n" * (copies.MAX_CODE_CHARS // 6 + 1))
+    assert "over the 262144 a policy's code may hold" in _board_refusal(run)

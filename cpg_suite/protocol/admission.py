@@ -46,6 +46,7 @@ files like any other; whether its code may run is `verify`'s question (`--trust_
 
 from __future__ import annotations
 
+import collections
 import csv
 import hashlib
 import io
@@ -353,7 +354,7 @@ def read_trials(path: str) -> list[dict]:
         rows = list(reader)
     except csv.Error as e:  # a cell over csv's field limit, a NUL byte
         raise ValueError(f"{os.path.basename(path)} is not readable as CSV ({e})") from None
-    twice = sorted({name for name in header if header.count(name) > 1})
+    twice = sorted(name for name, n in collections.Counter(header).items() if n > 1)
     if twice:
         raise ValueError(f"{os.path.basename(path)} names the column {twice[0]!r} twice")
     measures = [name for name in header if name not in OUTCOME_FIELDS]

@@ -124,6 +124,12 @@ class Fingerprint:
     in_sample: tuple | None = None
 
 
+# The most a policy's code (`policy_code.py`) may hold: its syntax tree is built to compare
+# it with other runs', and a 4 MB file of one-line statements cost 2.6 GB (an outside
+# attack of 2026-11-29). A choice: 256 KiB, far above a policy's few dozen lines.
+MAX_CODE_CHARS = 2**18
+
+
 def _sha256(*parts: bytes) -> str:
     digest = hashlib.sha256()
     for part in parts:
@@ -170,6 +176,11 @@ def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple 
         return (*_arrays({"actions": exported.load_npy(path)}), None)  # header checked first
     if name.endswith(".py"):
         source = run_files.read_text(path)  # a regular file of bounded size
+        if len(source) > MAX_CODE_CHARS:
+            raise ValueError(
+                f"{name} holds {len(source)} characters, over the {MAX_CODE_CHARS} a policy's "
+                "code may hold"
+            )
         try:
             tree = ast.dump(ast.parse(source), annotate_fields=False)
         except (RecursionError, MemoryError):

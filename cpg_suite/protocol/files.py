@@ -79,6 +79,14 @@ def _no_constant(name: str):
     raise ValueError(f"{name} is not a JSON number")
 
 
+def _bounded_int(text: str) -> int:
+    """A JSON integer, refused beyond a 64-bit integer's range (a 400-digit count overflowed
+    the board's float conversion: an outside attack of 2026-11-29)."""
+    if len(text.lstrip("-")) > 19 or not -(2**63) <= int(text) < 2**63:
+        raise ValueError(f"{text[:24]}{'...' if len(text) > 24 else ''} does not fit 64 bits")
+    return int(text)
+
+
 def _finite_float(text: str) -> float:
     """A JSON number as a float, refused if it does not fit one (1e309 is not infinity)."""
     value = float(text)
@@ -112,8 +120,8 @@ def _depth(value: object) -> int:
 
 def read_json(path: str) -> object:
     """A run's JSON file, strictly: a regular file (`refusal`), each key once per object,
-    no NaN or Infinity (nor a number too large for a float), at most `MAX_JSON_BYTES` long
-    and nesting at most `MAX_JSON_DEPTH` lists and objects deep.
+    no NaN or Infinity (nor a float too large for one, nor an integer beyond 64 bits), at
+    most `MAX_JSON_BYTES` long and nesting at most `MAX_JSON_DEPTH` lists and objects deep.
 
     Raises:
       OSError: If it cannot be read.
@@ -133,6 +141,7 @@ def read_json(path: str) -> object:
             object_pairs_hook=_strict_object,
             parse_constant=_no_constant,
             parse_float=_finite_float,
+            parse_int=_bounded_int,
         )
     except RecursionError:
         raise ValueError(too_deep) from None

@@ -187,7 +187,7 @@ def load_npz(path: str) -> dict[str, np.ndarray]:
       ValueError: With a one-line reason, if it is not such an archive.
     """
     base = os.path.basename(path)
-    arrays = {}
+    arrays, values = {}, 0
     try:
         with zipfile.ZipFile(path) as archive:
             for info in archive.infolist():
@@ -200,7 +200,8 @@ def load_npz(path: str) -> dict[str, np.ndarray]:
                 shown = member if member.isprintable() else repr(member)
                 with archive.open(info) as stream:
                     arrays[key] = read_npy(stream, info.file_size, f"{base}:{shown}")
-                if sum(a.size for a in arrays.values()) > MAX_VALUES:
+                values += arrays[key].size
+                if values > MAX_VALUES:
                     raise ValueError(
                         f"{base} holds over the {MAX_VALUES} values a run's arrays may hold"
                     )
