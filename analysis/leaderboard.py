@@ -631,6 +631,7 @@ def is_darwin_run(run: dict) -> bool:
     holds is not read, and the board lists it as not admitted rather than drop it)."""
     return (
         run["task"].startswith("darwin_walk")
+        or not run["task"].isascii()  # a lookalike of a DARwIn task: listed, never dropped
         or run["method"] == PRESET_METHOD
         or bool(run.get("linked"))  # what it holds is not read: listed, never dropped
     )

@@ -866,3 +866,34 @@ def test_policy_code_past_its_size_is_refused_before_it_is_parsed(tmp_path):
     with open(os.path.join(run, admission.CODE), "w", encoding="utf-8") as f:
         f.write(source + "x = 1\n" * (copies.MAX_CODE_CHARS // 6 + 1))
     assert "over the 262144 a policy's code may hold" in _board_refusal(run)
+
+
+@pytest.mark.parametrize("task", ["darwin_walk_foo", "darwin_w\u0430lk"])
+def test_a_run_under_a_task_folder_that_is_no_tier_is_listed_and_refused(tmp_path, task):
+    """helper-50 (2026-11-29): a run moved to `darwin_walk_foo` (its config saying so) was
+    ranked on a tier that does not exist, and one under a lookalike `darwin_wаlk` (Cyrillic
+    а) vanished from every listing. Both are listed as refused, in one line."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", "K50_n0.8_e2_seed0")
+    moved = tmp_path / "runs" / "cem" / task / "K50_n0.8_e2_seed0"
+    shutil.move(os.path.dirname(run), moved.parent)
+    path = moved / "config.json"
+    config = json.loads(path.read_text(encoding="utf-8"))
+    config["settings"]["task"] = task
+    path.write_text(json.dumps(config), encoding="utf-8")
+    files = _board_files(tmp_path / "runs", tmp_path / "board")
+    assert list(csv.DictReader(io.StringIO(files["darwin_leaderboard.csv"]))) == []
+    (row,) = csv.DictReader(io.StringIO(files["darwin_not_admitted.csv"]))
+    assert row["reason"].isprintable() and (
+        "no DARwIn-OP walking task" in row["reason"] or ("ASCII" in row["reason"])
+    ), row
+
+
+@pytest.mark.parametrize("text", ["{", "[]", "null", '{"made_with": {"python": 5}}'])
+def test_a_versions_record_that_is_not_verifys_is_refused(tmp_path, text):
+    """helper-50 (2026-11-29): a versions.json of one `{`, or one naming versions as numbers,
+    was admitted: only its presence was checked."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", "K50_n0.8_e2_seed0")
+    with open(os.path.join(run, "versions.json"), "w", encoding="utf-8") as f:
+        f.write(text)
+    reason = _board_refusal(run)
+    assert "versions.json" in reason, reason

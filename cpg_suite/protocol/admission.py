@@ -911,12 +911,31 @@ def cards_of(summary: dict) -> dict[int, dict] | str:
     return cards
 
 
+def versions_refusal(path: str) -> str | None:
+    """Why a run's `versions.json` is not the record verify writes (None: it is): an object
+    whose `made_with` (and `scored_with`, where present) names each package's version as
+    text (a fifth outside attack of 2026-11-29 found a file of one `{` admitted)."""
+    record = files.read_json(path)
+    for key in ("made_with", "scored_with"):
+        if key == "scored_with" and isinstance(record, dict) and key not in record:
+            continue
+        entry = record.get(key) if isinstance(record, dict) else None
+        if not isinstance(entry, dict) or not all(
+            isinstance(v, str) or v is None for v in entry.values()
+        ):
+            return f"versions.json's {key} is not an object of versions as text"
+    return None
+
+
 def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
     summary = _read_json(os.path.join(run_dir, "summary.json"))
     config = _read_json(os.path.join(run_dir, "config.json"))
     settings = config.get("settings")
     if not isinstance(settings, dict):
         return "config.json holds no settings"
+    reason = versions_refusal(os.path.join(run_dir, "versions.json"))
+    if reason:
+        return reason
     cards = cards_of(summary)
     if isinstance(cards, str):
         return cards
@@ -1124,6 +1143,11 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
       summary: Its summary.
     """
     task = os.path.basename(os.path.dirname(os.path.normpath(os.path.abspath(run_dir))))
+    if task not in protocol.TIERS:  # a fifth attack trained "darwin_walk_foo"
+        return (
+            f"its task folder {shown_name(task)} is no DARwIn-OP walking task: one of "
+            f"{', '.join(protocol.TIERS)}"
+        )
     if settings.get("task") != task:
         return f"config.json says it trained on {settings.get('task')!r}, its folder on {task!r}"
     for key in ("evaluations", "env_steps", "sim_steps", "validation_sim_steps"):
