@@ -329,7 +329,7 @@ def leaderboard_rows(found: list[dict], admitted: list[dict] | None = None) -> l
     for run in found:
         if is_darwin_run(run):
             run = checked.get(run["dir"])
-        if run is not None and not run.get("incomplete") and not run.get("misplaced"):
+        if run is not None and not run.get("incomplete"):  # the study's own runs nest deeper
             groups[(run["task"], run["method"], run["config"])].append(run["summary"])
     rows = []
     for (task, method, config), summaries in sorted(groups.items()):
