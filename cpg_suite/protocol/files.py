@@ -82,9 +82,10 @@ def _no_constant(name: str):
 def _bounded_int(text: str) -> int:
     """A JSON integer, refused beyond a 64-bit integer's range (a 400-digit count overflowed
     the board's float conversion: an outside attack of 2026-11-29)."""
-    if len(text.lstrip("-")) > 19 or not -(2**63) <= int(text) < 2**63:
+    value = int(text) if len(text.lstrip("-")) <= 19 else None  # no 400-digit conversion
+    if value is None or not -(2**63) <= value < 2**63:
         raise ValueError(f"{text[:24]}{'...' if len(text) > 24 else ''} does not fit 64 bits")
-    return int(text)
+    return value
 
 
 def _finite_float(text: str) -> float:
