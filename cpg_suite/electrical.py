@@ -325,6 +325,18 @@ class SupplyMonitor:
         """
         return self._add([s / SUPPLY_VOLTAGE + IDLE_CURRENT for s in sums.tolist()])
 
+    def update_floats(self, currents: list[float]) -> int:
+        """`update` of a list of Python floats (as `tolist` gives them), unchecked: the
+        batched paths' (the vector env's and the closed-loop evaluator's) per-robot call.
+
+        Args:
+          currents: The next n physics steps' supply currents, A, each a Python float.
+
+        Returns:
+          As `update`.
+        """
+        return self._add(currents)
+
     def _add(self, values: list[float]) -> int:
         """`update` of Python floats."""
         if len(values) >= _IN_NUMPY_FROM:

@@ -324,7 +324,7 @@ class DarwinVectorEnv(gymnasium.vector.VectorEnv):
         currents = meter.currents(sums)
         rows = currents.tolist()
         for i in stepped:
-            self.envs[i].task.supply.update(rows[i])
+            self.envs[i].task.supply.update_floats(rows[i])
         self._currents = currents
 
     def supply_currents(self) -> np.ndarray:

@@ -139,6 +139,73 @@ def test_long_updates_in_numpy_equal_the_step_by_step_loop(window_steps, monkeyp
             assert repr(got) == repr(want)
 
 
+class _StepByStep:
+    """The monitor's definition, one step at a time in Python floats: T_k = T_{k−1} + i_k,
+    the mean over the window (T_k − T_{k−w}) / w (T_j = j·idle for j < 0) or over the trial
+    T_k / k, the worst the first of the largest means that are numbers, the brown-out the
+    first step whose mean exceeds the enforced limit."""
+
+    def __init__(self, limit, enforce):
+        self.limit, self.enforce = limit, enforce
+        self.w = limit.window_steps(DT)
+        self.totals = {}  # j -> T_j
+        self.total, self.worst, self.steps, self.browned_out = 0.0, -math.inf, 0, 0
+
+    def earlier(self, j):
+        return self.totals[j] if j >= 1 else float(j) * electrical.IDLE_CURRENT
+
+    def update(self, values):
+        first = 0
+        for i, current in enumerate(values, 1):
+            self.steps += 1
+            self.total = self.total + current
+            self.totals[self.steps] = self.total
+            if self.w is None:
+                mean = self.total / self.steps
+            else:
+                mean = (self.total - self.earlier(self.steps - self.w)) / self.w
+            if mean > self.worst:
+                self.worst = mean
+            if self.enforce and not self.browned_out and mean > self.limit.current:
+                self.browned_out = self.steps
+                first = i
+        return first
+
+
+@pytest.mark.parametrize("window_steps", [None, 1, 3, 5, 8, 9, 50, 500])
+def test_short_updates_equal_the_monitors_definition_step_by_step(window_steps):
+    """`SupplyMonitor`'s path for control-step-sized updates (`itertools.accumulate`,
+    `map` and `max` over the steps, the ring wrapped) leaves the numbers of the definition
+    taken one step at a time: the verdict, the running total, the worst window (its signed
+    zero), the step count, the brown-out step and the ring of the last w totals; over updates
+    of 0 to 63 steps, shorter and longer than the window, with NaN, infinite and ±0
+    currents, with and without the limit enforced."""
+    rng = np.random.default_rng(window_steps or 0)
+    window = math.inf if window_steps is None else window_steps * DT
+    specials = [math.nan, math.inf, -math.inf, 0.0, -0.0, 5e-324, -5e-324]
+    for trial in range(24):
+        limit = electrical.SupplyLimit(current=float(rng.uniform(3.0, 6.0)), window=window)
+        enforce = bool(trial % 3)
+        monitor = electrical.SupplyMonitor(limit, DT, enforce)
+        reference = _StepByStep(limit, enforce)
+        for _ in range(40):
+            n = int(rng.choice([0, 1, 2, 7, 8, 9, 16, 63]))
+            values = rng.gamma(2.0, 2.0, n).tolist()
+            if trial >= 16 and n:  # a special current in some updates
+                values[int(rng.integers(n))] = specials[int(rng.integers(len(specials)))]
+            if trial in (6, 7):  # equal currents: ties between window means
+                values = [3.0] * n
+            got = monitor.update(values)
+            want = reference.update(values)
+            state = (got, monitor.total, monitor.worst, monitor.steps, monitor.browned_out)
+            defined = (want, reference.total, reference.worst, reference.steps)
+            assert repr(state) == repr((*defined, reference.browned_out))
+            if window_steps is not None:  # the ring: T_{k+1−w}, …, T_k from ring[k % w]
+                k, w = monitor.steps, window_steps
+                ring = monitor._ring[k % w :] + monitor._ring[: k % w]
+                assert repr(ring) == repr([reference.earlier(j) for j in range(k + 1 - w, k + 1)])
+
+
 def test_long_updates_keep_the_loops_signed_zero_and_lists_of_other_floats_convert():
     """The first of equal largest means is the worst, as in the loop (−0 before +0), and a
     list of NumPy float32 numbers is read as float64, as an array of them is."""

@@ -69,3 +69,41 @@ def test_the_report_reads_run_files_as_the_board_does(tmp_path):
     assert report._read_csv(str(tmp_path / "zero.csv")) == []
     assert leaderboard.budget_track([{"evaluations": "2501"}]) == "over_4x"
     assert leaderboard.budget_track([{"evaluations": 2501}]) == "study"
+
+
+def test_the_best_gait_shown_is_the_one_the_board_can_check(tmp_path):
+    """The figures' best gait (Fig. 6.8-6.9) is chosen by the in-sample best tried again
+    (`in_sample`, which verify re-makes), never by a training record a run's summary.json
+    merely states; a value that is no finite number counts for nothing; only with no run
+    tried again is the training record used, and the figure says it is unchecked."""
+    from analysis import report
+    from cpg_suite.protocol import admission
+
+    def run(name, summary, method="cem", task="darwin_walk", gait=True):
+        folder = tmp_path / name
+        folder.mkdir()
+        if gait:
+            (folder / admission.IN_SAMPLE).write_text("{}")
+        return {"dir": str(folder), "method": method, "task": task, "summary": summary}
+
+    forged = run("forged", {"best_distance_m": 99.0})  # no in_sample: never tried again
+    tried = run("tried", {"best_distance_m": 1.0, "in_sample": {"distance_m": 2.5}})
+    better = run("better", {"best_distance_m": 0.5, "in_sample": {"distance_m": 3.0}})
+    nan = run("nan", {"in_sample": {"distance_m": float("nan")}})
+    flag = run("flag", {"in_sample": {"distance_m": True}})
+    text = run("text", {"in_sample": {"distance_m": "9"}})
+    other_task = run("other", {"in_sample": {"distance_m": 9.0}}, task="darwin_walk_rough")
+    policy = run("policy", {"in_sample": {"distance_m": 9.0}}, method="ppo")
+    no_file = run("nofile", {"in_sample": {"distance_m": 9.0}}, gait=False)
+    runs = [forged, tried, better, nan, flag, text, other_task, policy, no_file]
+    path, distance, checked = report._best_gait_file(runs)
+    assert (path, distance, checked) == (str(tmp_path / "better" / admission.IN_SAMPLE), 3.0, True)
+    path, distance, checked = report._best_gait_file([forged, nan])
+    assert (path, distance, checked) == (
+        str(tmp_path / "forged" / admission.IN_SAMPLE),
+        99.0,
+        False,
+    )
+    assert "unchecked" in report._best_label(distance, checked)
+    assert "unchecked" not in report._best_label(3.0, True)
+    assert report._best_gait_file([policy, other_task])[0] is None

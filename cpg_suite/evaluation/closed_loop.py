@@ -357,7 +357,7 @@ class FeedbackEvaluator:
             trial = trials[i]
             if trial.fall_step:  # diverged (`_step_trial`)
                 continue
-            if trial.supply.update(values):
+            if trial.supply.update_floats(values):
                 trial.fall_step, trial.cause = t + 1, BROWNOUT
 
     def _result(self, trials: list, shape: tuple, quality: bool) -> BatchResult:
