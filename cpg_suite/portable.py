@@ -299,6 +299,37 @@ _PI_HI = 3.1415926535897931160e00  # fl(π)
 _PI_LO = 1.2246467991473531772e-16  # π − fl(π)
 
 
+def _constant(value: float) -> np.ndarray:
+    """`value` as a read-only 0-d float64 array."""
+    out = np.array(value, dtype=np.float64)
+    out.flags.writeable = False
+    return out
+
+
+# The elementary functions' constants as 0-d float64 arrays: NumPy converts a Python float
+# operand on every call, which on the small arrays these functions see costs as much as the
+# operation itself. The values are the same float64 numbers, so the results are the same
+# bits (tests/test_portable.py); the public limits stay Python floats.
+(_INV_PIO2, _PIO2_1, _PIO2_2, _PIO2_3, _PIO2_3T) = map(
+    _constant, (_INV_PIO2, _PIO2_1, _PIO2_2, _PIO2_3, _PIO2_3T)
+)
+_LN2_HI, _LN2_LO, _INV_LN2, _PI_HI, _PI_LO = map(
+    _constant, (_LN2_HI, _LN2_LO, _INV_LN2, _PI_HI, _PI_LO)
+)
+_SIN, _COS, _EXP, _EXPM1, _ATAN, _ATAN_HI, _ATAN_LO = (
+    tuple(map(_constant, c)) for c in (_SIN, _COS, _EXP, _EXPM1, _ATAN, _ATAN_HI, _ATAN_LO)
+)
+_TRIG_LIMIT, _EXP_MIN, _EXP_MAX = map(_constant, (TRIG_LIMIT, EXP_MIN, EXP_MAX))
+_ZERO, _HALF, _ONE, _TWO, _INF = map(_constant, (0.0, 0.5, 1.0, 2.0, math.inf))
+_ONE_INT, _THREE = np.array(1, dtype=np.int64), np.array(3, dtype=np.int64)
+_HALF_PI_HI = _constant(0.5 * float(_PI_HI))  # 0.5·fl(π), exact
+_ONE_HALF, _MINUS_ONE = _constant(1.5), _constant(-1.0)
+_ATAN_BOUNDS = np.array([0.4375, 0.6875, 1.1875, 2.4375])  # `_atan_reduced`'s intervals
+# atan of each interval's reference point in two pieces, by interval + 1 (none below 7/16).
+_ATAN_HI_TABLE = np.array([0.0, *map(float, _ATAN_HI)])
+_ATAN_LO_TABLE = np.array([0.0, *map(float, _ATAN_LO)])
+
+
 def _floats(x) -> np.ndarray:
     return np.asarray(x, dtype=np.float64)
 
@@ -321,7 +352,7 @@ def _two_diff(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _reduce_pio2(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x = n π/2 + (hi + lo), |hi + lo| ≤ π/4, |lo| ≤ ulp(hi)/2 (msun e_rem_pio2.c's
     three rounds, each round's rounding error carried)."""
-    if not np.all(np.abs(x) <= TRIG_LIMIT):
+    if not (np.abs(x) <= _TRIG_LIMIT).all():
         bad = x[~(np.abs(x) <= TRIG_LIMIT)].ravel()[0]
         raise ValueError(f"sin and cos need finite angles with |x| ≤ 2**19 π, got {bad}")
     n = np.rint(x * _INV_PIO2)
@@ -337,15 +368,15 @@ def _kernel_sin(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     """sin(x + y) for |x + y| ≤ π/4, |y| ≤ ulp(x)/2, z = x² (msun k_sin.c)."""
     v = z * x
     r = _poly(z, _SIN[1:])
-    return x - ((z * (0.5 * y - v * r) - y) - v * _SIN[0])
+    return x - ((z * (_HALF * y - v * r) - y) - v * _SIN[0])
 
 
 def _kernel_cos(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     """cos(x + y) for |x + y| ≤ π/4, |y| ≤ ulp(x)/2, z = x² (msun k_cos.c)."""
     r = z * _poly(z, _COS)
-    hz = 0.5 * z
-    w = 1.0 - hz
-    return w + (((1.0 - w) - hz) + (z * r - x * y))
+    hz = _HALF * z
+    w = _ONE - hz
+    return w + (((_ONE - w) - hz) + (z * r - x * y))
 
 
 def sincos(x) -> tuple[np.ndarray, np.ndarray]:
@@ -364,8 +395,8 @@ def sincos(x) -> tuple[np.ndarray, np.ndarray]:
     n, hi, lo = _reduce_pio2(x)
     z = hi * hi
     s, c = _kernel_sin(hi, lo, z), _kernel_cos(hi, lo, z)
-    quadrant = n.astype(np.int64) & 3  # x = n π/2 + r: sin x = ±sin r or ±cos r
-    odd = quadrant & 1 == 1
+    quadrant = n.astype(np.int64) & _THREE  # x = n π/2 + r: sin x = ±sin r or ±cos r
+    odd = (quadrant & _ONE_INT).astype(bool)
     sin_x = np.where(odd, c, s) * _SIN_SIGNS[quadrant]
     cos_x = np.where(odd, s, c) * _COS_SIGNS[quadrant]
     return sin_x, cos_x
@@ -397,7 +428,7 @@ def exp(x) -> np.ndarray:
       A float64 array of x's shape.
     """
     x = _floats(x)
-    inside = (x >= EXP_MIN) & (x <= EXP_MAX)
+    inside = (x >= _EXP_MIN) & (x <= _EXP_MAX)
     if inside.all():
         return _exp(x)
     out = _exp(np.where(inside, x, 0.0))
@@ -410,7 +441,7 @@ def _exp(x: np.ndarray) -> np.ndarray:
     r = hi - lo
     t = r * r
     c = r - t * _poly(t, _EXP)
-    y = 1.0 - ((lo - (r * c) / (2.0 - c)) - hi)
+    y = _ONE - ((lo - (r * c) / (_TWO - c)) - hi)
     return np.ldexp(y, k.astype(np.int64))
 
 
@@ -491,34 +522,32 @@ def expit(x) -> np.ndarray:
     """
     x = _floats(x)
     e = exp(-np.abs(x))
-    return np.where(x >= 0.0, 1.0 / (1.0 + e), e / (1.0 + e))
+    return np.where(x >= _ZERO, _ONE / (_ONE + e), e / (_ONE + e))
 
 
 def _atan_reduced(x: np.ndarray) -> np.ndarray:
-    """atan x for x ≥ 0 (msun s_atan.c, its five argument intervals)."""
+    """atan x for x ≥ 0 (msun s_atan.c, its five argument intervals: −1 below 7/16, then
+    0 to 3 from the bounds up; a NaN's is 3, as no bound is at or below it)."""
+    interval = np.searchsorted(_ATAN_BOUNDS, x, side="right") - _ONE_INT
     with np.errstate(divide="ignore", invalid="ignore"):
-        interval = np.select(
-            [x < 0.4375, x < 0.6875, x < 1.1875, x < 2.4375], [-1, 0, 1, 2], default=3
-        )
-        reduced = np.select(
-            [interval == 0, interval == 1, interval == 2, interval == 3],
+        reduced = np.choose(
+            interval + _ONE_INT,
             [
-                (2.0 * x - 1.0) / (2.0 + x),
-                (x - 1.0) / (x + 1.0),
-                (x - 1.5) / (1.0 + 1.5 * x),
-                -1.0 / x,
+                x,
+                (_TWO * x - _ONE) / (_TWO + x),
+                (x - _ONE) / (x + _ONE),
+                (x - _ONE_HALF) / (_ONE + _ONE_HALF * x),
+                _MINUS_ONE / x,
             ],
-            default=x,
         )
     z = reduced * reduced
     w = z * z
     odd = z * _poly(w, _ATAN[0::2])
     even = w * _poly(w, _ATAN[1::2])
     poly = reduced * (odd + even)
-    hi = np.select([interval == i for i in range(4)], list(_ATAN_HI), default=0.0)
-    lo = np.select([interval == i for i in range(4)], list(_ATAN_LO), default=0.0)
+    hi, lo = _ATAN_HI_TABLE[interval + _ONE_INT], _ATAN_LO_TABLE[interval + _ONE_INT]
     out = hi - ((poly - lo) - reduced)
-    return np.where(interval < 0, reduced - poly, out)
+    return np.where(interval < _ZERO, reduced - poly, out)
 
 
 def arctan2(y, x) -> np.ndarray:
@@ -534,14 +563,15 @@ def arctan2(y, x) -> np.ndarray:
       ValueError: On a non-finite coordinate.
     """
     y, x = np.broadcast_arrays(_floats(y), _floats(x))
-    if not (np.all(np.isfinite(y)) and np.all(np.isfinite(x))):
+    if not (np.isfinite(y).all() and np.isfinite(x).all()):
         raise ValueError("arctan2 needs finite coordinates")
     ay, ax = np.abs(y), np.abs(x)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ratio = np.where(ax > 0.0, ay / ax, np.inf)
-    ratio = np.where((ay == 0.0) & (ax == 0.0), 0.0, ratio)
-    a = _atan_reduced(np.where(np.isinf(ratio), 1.0, ratio))
-    a = np.where(np.isinf(ratio), 0.5 * _PI_HI, a)
+        ratio = np.where(ax > _ZERO, ay / ax, _INF)
+    ratio = np.where((ay == _ZERO) & (ax == _ZERO), _ZERO, ratio)
+    infinite = np.isinf(ratio)
+    a = _atan_reduced(np.where(infinite, _ONE, ratio))
+    a = np.where(infinite, _HALF_PI_HI, a)
     a = np.where(np.signbit(x), _PI_HI - (a - _PI_LO), a)
     return np.copysign(a, y)
 
