@@ -116,14 +116,19 @@ def _add_score_card(dirpath: str, found: list[dict], skipped: list[str]) -> None
     )
 
 
-def walk_sorted(root: str) -> Iterator[tuple[str, list[str], list[str]]]:
-    """`os.walk` in name order: the board's sums and bootstrap draws take the runs in an
-    order that does not depend on the file system's listing order (yields `dirpath`, its
-    folder names, which `os.walk` enters unless they are links, and its file names,
-    sorted)."""
-    for dirpath, dirnames, filenames in os.walk(root):
-        dirnames.sort()
-        yield dirpath, dirnames, sorted(filenames)
+def walk_sorted(
+    root: str, too_deep: list[str] | None = None
+) -> Iterator[tuple[str, list[str], list[str]]]:
+    """`os.walk` in name order, without recursion and at most `files.MAX_TREE_DEPTH`
+    folders deep (`files.walk_sorted`): the board's sums and bootstrap draws take the runs
+    in an order that does not depend on the file system's listing order (yields `dirpath`,
+    its folder names, which it enters unless they are links, and its file names, sorted).
+
+    Args:
+      root: The run tree.
+      too_deep: Where to append each folder left unread for its depth (None: nowhere).
+    """
+    return files.walk_sorted(root, too_deep)
 
 
 def find_runs(root: str) -> tuple[list[dict], list[str]]:
@@ -138,9 +143,9 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
     Returns:
       `(found, skipped)`: one dict per run or part of one; one line per file skipped.
     """
-    found, skipped = [], []
-    for dirpath, dirnames, filenames in walk_sorted(root):
-        for name in dirnames:  # os.walk lists a link to a folder here, and never enters it
+    found, skipped, too_deep = [], [], []
+    for dirpath, dirnames, filenames in walk_sorted(root, too_deep):
+        for name in dirnames:  # a link to a folder is listed here, and never entered
             if os.path.islink(os.path.join(dirpath, name)):
                 _add_link(os.path.join(dirpath, name), root, found)
         if "summary.json" not in filenames:
@@ -182,6 +187,11 @@ def find_runs(root: str) -> tuple[list[dict], list[str]]:
                 "trained_version": trained_version(config_path),
             }
         )
+    skipped += [
+        f"{admission.shown_name(path)}: deeper than {files.MAX_TREE_DEPTH} folders below the "
+        "runs folder, not read"
+        for path in too_deep
+    ]
     path = ledger_path(root)
     try:
         ledger = admission.read_ledger(path)
@@ -496,6 +506,17 @@ def _trained_as(version: int | None) -> int | None:
 CODE_STATUS = "code"
 
 
+# A configuration whose seeds are not 0, 1, ..., N−1: listed, not ranked. Its seeds may be
+# the best N of more (helper-51 ranked CEM's best 5 of its 10 seeds 20 % above all 10).
+GAPPED_STATUS = "gapped_seeds"
+
+
+def _seeds_from_zero(summaries: list[dict]) -> bool:
+    """Whether a configuration's runs are its seeds 0, 1, ..., N−1 (`find_runs`' seeds)."""
+    seeds = [s.get("_seed") for s in summaries]
+    return all(type(x) is int for x in seeds) and sorted(seeds) == list(range(len(seeds)))
+
+
 def _status(track: str, trained: int | None, version: int, complete: bool) -> str:
     """A configuration's standing on the board of `version` (docs/protocol.md#ranking):
     "reference" (a preset: no training), "trained_v<n>" (trained under an earlier version
@@ -526,6 +547,8 @@ def _darwin_row(key: tuple, summaries: list[dict]) -> dict:
     tiers = protocol.tiers(version)
     complete = len(summaries) >= MIN_SEEDS and all(set(tiers) <= set(t["tiers"]) for t in tests)
     status = _status(track, trained, version, complete)
+    if status == "ranked" and not _seeds_from_zero(summaries):
+        status = GAPPED_STATUS
     if status in ("ranked", "provisional") and any(s.get("_unvetted_code") for s in summaries):
         status = CODE_STATUS
     ranked = status == "ranked"
@@ -607,7 +630,12 @@ def darwin_rows(found: list[dict], version: int | None = None) -> list[dict]:
             trained = _trained_as(run.get("trained_version"))
             key = (run["task"], run["method"], run["config"], version_of_card, trained)
             groups[key].append(
-                {**run["summary"], "test": card, "_rescored_on": run.get("rescored_on")}
+                {
+                    **run["summary"],
+                    "test": card,
+                    "_rescored_on": run.get("rescored_on"),
+                    "_seed": run.get("seed"),
+                }
             )
     return _ranked([_darwin_row(key, summaries) for key, summaries in groups.items()])
 

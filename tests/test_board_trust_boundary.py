@@ -897,3 +897,161 @@ def test_a_versions_record_that_is_not_verifys_is_refused(tmp_path, text):
         f.write(text)
     reason = _board_refusal(run)
     assert "versions.json" in reason, reason
+
+
+# A sixth outside attack (helper-51, 2026-11-29).
+
+
+def _nested(base, depth: int, name: str = "d") -> list[str]:
+    """A chain of `depth` folders under `base`, made one level at a time (`os.makedirs`
+    recurses, and fails at Python's recursion limit like the walk it tests): the folders,
+    top first."""
+    chain, path = [], str(base)
+    for _ in range(depth):
+        path = os.path.join(path, name)
+        os.mkdir(path)
+        chain.append(path)
+    return chain
+
+
+@pytest.mark.parametrize("where", ["root", "method", "run"])
+def test_a_folder_tree_thousands_deep_is_listed_and_the_board_goes_on(tmp_path, where):
+    """A 1,100-deep chain of empty folders beside a run crashed the board (Python 3.11's
+    `os.walk` recurses: RecursionError, no file written). The walk is iterative and enters
+    at most `files.MAX_TREE_DEPTH` folders; what lies deeper is listed as skipped, and the
+    honest run beside it is still admitted. verify's walk of a tree is the same one."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+    base = {"root": tmp_path / "runs", "method": tmp_path / "runs" / "cem", "run": run}[where]
+    chain = _nested(base, 1100)
+    try:
+        found, skipped = leaderboard.find_runs(str(tmp_path / "runs"))
+        assert any("deeper than 16 folders" in line and line.isprintable() for line in skipped)
+        admitted, refused = leaderboard.admit(found)
+        assert [r["dir"] for r in admitted] == [run] and refused == []
+        assert verify.shipped_runs(str(tmp_path / "runs")) == [run]
+        assert verify.run_folders(str(tmp_path / "runs")) == [run]
+    finally:  # bottom up: pytest's clean-up of its temporary folders recurses too
+        for path in reversed(chain):
+            os.rmdir(path)
+
+
+def test_the_walk_yields_what_os_walk_yields_in_name_order(tmp_path):
+    """`files.walk_sorted` is `os.walk` top-down in name order: the same folders, their
+    folder and file names sorted, a link to a folder listed and not entered."""
+    shutil.copytree(os.path.join(RUNS, "cem"), tmp_path / "runs" / "cem")
+    os.symlink(tmp_path / "runs" / "cem", tmp_path / "runs" / "link")
+    (tmp_path / "runs" / "b.txt").write_text("x")
+    ours = list(files_module.walk_sorted(str(tmp_path / "runs")))
+    theirs = []
+    for dirpath, dirnames, filenames in os.walk(tmp_path / "runs"):
+        dirnames.sort()
+        theirs.append((dirpath, list(dirnames), sorted(filenames)))
+    assert ours == theirs and any("link" in d for _, d, _ in ours)
+
+
+def test_a_refusal_that_quotes_a_huge_text_is_cut_to_one_short_line(tmp_path):
+    """A 900,000-character task name in a run's config made a 900 KB line of the
+    not-admitted listing: a reason is cut at `admission.MAX_REASON_CHARS`."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+    path = os.path.join(run, "config.json")
+    config = json.loads(open(path, encoding="utf-8").read())
+    config["settings"]["task"] = "x" * 900_000 + "\n"
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(config, f)
+    reason = _board_refusal(run)
+    assert len(reason) < 2 * admission.MAX_REASON_CHARS and "more characters cut" in reason
+
+
+@pytest.mark.parametrize(
+    "source, dropped",
+    [
+        (GAIT_RUN, ("population", "rounds", "eval_seeds")),
+        (PPO_RUN, ("total_steps",)),
+    ],
+    ids=["gait", "policy"],
+)
+def test_a_trained_run_whose_config_sets_no_budget_is_refused(tmp_path, source, dropped):
+    """A run whose config dropped its budget was admitted: a gait search claiming one
+    training trial ranked on the study's track, a learner listed as an untrained
+    reference. Every run folder states a budget; an untrained gait is a preset's card."""
+    run = _copy(tmp_path, source, "ppo" if source == PPO_RUN else "cem", os.path.basename(source))
+    path = os.path.join(run, "config.json")
+    config = json.loads(open(path, encoding="utf-8").read())
+    for key in dropped:
+        config["settings"].pop(key, None)
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(config, f)
+    _edit_summary(run, lambda s: [s.pop(k, None) for k in ("env_steps", "evaluations")])
+    assert "sets no training budget" in _board_refusal(run)
+
+
+@pytest.mark.parametrize("distance", [99.0, -40.0, 32.5])
+def test_an_in_sample_best_beyond_any_trials_reach_is_refused(tmp_path, distance):
+    """summary.json's `in_sample` (shown as the in-sample best until verify tries it
+    again) claimed 99 m and was shown; it is held to the distance any trial may claim."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+    _edit_summary(run, lambda s: s.update(in_sample={"distance_m": distance, "fell": False}))
+    assert "in_sample" in _board_refusal(run)
+
+
+def test_a_configuration_of_picked_seeds_is_listed_not_ranked():
+    """Shipping CEM's best 5 of its 10 seeds ranked the configuration 20 % above all 10,
+    with no file changed. A configuration is ranked only on seeds 0, 1, ..., N−1; any other
+    set is listed with the status `gapped_seeds`."""
+    found, _ = leaderboard.find_runs(RUNS)
+    cem = [r for r in found if r["method"] == "cem" and r["config"] == "K50_n0.8_e2"]
+    assert sorted(r["seed"] for r in cem) == list(range(10))
+    for seeds, status in (
+        ({4, 8, 7, 1, 0}, leaderboard.GAPPED_STATUS),
+        ({1, 2, 3, 4, 5}, leaderboard.GAPPED_STATUS),
+        ({0, 1, 2, 3, 4}, "ranked"),
+        (set(range(10)), "ranked"),
+    ):
+        (row,) = leaderboard.darwin_rows([r for r in cem if r["seed"] in seeds], 3)
+        assert row["status"] == status, (seeds, row["status"])
+        assert (row["rank"] == "") == (status != "ranked") and ("iqm_m" in row) == (
+            status == "ranked"
+        )
+
+
+def _reparameterized(policy: exported.NumpyPolicy, rng) -> exported.NumpyPolicy:
+    """The same network with each hidden layer's units in another order (the same function
+    exactly) and its last layer nudged by 1e-7 of itself (helper-51's copy)."""
+    arrays = policy.arrays()
+    n = len(policy.layers)
+    for i in range(n - 1):  # the units between layer i and layer i + 1
+        order = rng.permutation(arrays[f"bias_{i}"].shape[0])
+        arrays[f"kernel_{i}"] = arrays[f"kernel_{i}"][:, order]
+        arrays[f"bias_{i}"] = arrays[f"bias_{i}"][order]
+        arrays[f"kernel_{i + 1}"] = arrays[f"kernel_{i + 1}"][order, :]
+    last = arrays[f"kernel_{n - 1}"]
+    arrays[f"kernel_{n - 1}"] = last * (1 + 1e-7 * rng.standard_normal(last.shape))
+    return exported.NumpyPolicy(arrays, policy.action_space)
+
+
+@pytest.mark.parametrize(
+    "source", ["ppo_mjx/darwin_walk/cpg_seed3", "ppo/darwin_walk/joints_seed0"]
+)
+def test_a_policy_with_its_hidden_units_reordered_and_nudged_is_a_copy(tmp_path, source):
+    """A sixth outside attack: a PPO policy's hidden units permuted (the same function) and
+    its last layer nudged by 1e-7, re-scored, was admitted as a new seed of its own
+    configuration: no array matched its original's by position, and the nudge changed 243
+    of 250 trials. Policies are compared by what they do as well
+    (`copies.policy_responses`): the copy is one with its original, whatever its trials;
+    two honest seeds are not."""
+    original = os.path.join(RUNS, source)
+    name = admission.EXPORTED
+    copy = tmp_path / "copy"
+    shutil.copytree(original, copy)
+    policy = exported.NumpyPolicy.load(os.path.join(original, name))
+    _reparameterized(policy, np.random.default_rng(0)).save(str(copy / name))
+    trials = admission.read_trials(os.path.join(original, "trials.csv"))
+    moved = [{**t, "distance_m": t["distance_m"] + 1.0} for t in trials]  # other trials
+    theirs = copies.fingerprint(original, (name,), trials)
+    ours = copies.fingerprint(str(copy), (name,), moved)
+    assert not copies.same_trials(ours, theirs)
+    assert copies.value_distance(ours.values, theirs.values) > copies.VALUE_RTOL  # by position
+    assert copies.copy_of(ours, theirs) == "gait or policy"
+    other = os.path.join(os.path.dirname(original), source.split("/")[-1][:-1] + "1")
+    honest = copies.fingerprint(other, (name,), moved)
+    assert copies.copy_of(honest, theirs) is None

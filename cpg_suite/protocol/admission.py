@@ -807,11 +807,21 @@ def file_refusal(run_dir: str) -> str | None:
     return None
 
 
+# The longest refusal the board prints, characters (a choice: a reason names at most two
+# runs' paths, each at most three names of 255, and its own words; the longest shipped
+# refusal is 55). A reason that quotes more of a run's own text is cut (helper-51: a
+# 900,000-character task name made a 900 KB line of the not-admitted listing).
+MAX_REASON_CHARS = 2000
+
+
 def shown_reason(reason: str) -> str:
     """A refusal as the board prints it: one line of printable characters, each other
     character escaped (a reason may quote a run's own text, as a card's `not_protocol`
     does: a newline there would forge a line of the listing; an outside attack of
-    2026-11-29)."""
+    2026-11-29), at most `MAX_REASON_CHARS` of them (the rest cut, and counted)."""
+    if len(reason) > MAX_REASON_CHARS:
+        cut = len(reason) - MAX_REASON_CHARS
+        reason = f"{reason[:MAX_REASON_CHARS]}... ({cut} more characters cut)"
     if reason.isprintable():
         return reason
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in reason)
@@ -1111,19 +1121,27 @@ def in_sample_refusal(run_dir: str, settings: dict, summary: dict) -> str | None
             theirs = best.get(field)
             return f"summary.json's {key} {summary[key]!r} is not its {IN_SAMPLE}'s {theirs!r}"
     if not _trial_record(best) or type(best.get("round")) is not int or best["round"] < 1:
-        return f"its {IN_SAMPLE} does not record a finite distance_m, a fell flag and a round ≥ 1"
+        return (
+            f"its {IN_SAMPLE} does not record a distance_m within {sample.MAX_TRIAL_DISTANCE_M:g} "
+            "m, a fell flag and a round ≥ 1"
+        )
     tried = summary.get("in_sample")
     if tried is not None and (not _trial_record(tried) or set(tried) != {"distance_m", "fell"}):
-        return "summary.json's in_sample is not a trial's finite distance_m and fell flag"
+        return (
+            f"summary.json's in_sample is not a trial's distance_m (within "
+            f"{sample.MAX_TRIAL_DISTANCE_M:g} m) and fell flag"
+        )
     return None
 
 
 def _trial_record(record) -> bool:
-    """Whether a record holds a trial's finite `distance_m` (a float) and `fell` (a bool)."""
+    """Whether a record holds a trial's `distance_m` (a float within the distance any
+    trial may claim, `sample.MAX_TRIAL_DISTANCE_M`: helper-51 showed a 99 m in-sample best)
+    and `fell` (a bool)."""
     return (
         isinstance(record, dict)
         and type(record.get("distance_m")) is float
-        and math.isfinite(record["distance_m"])
+        and abs(record["distance_m"]) <= sample.MAX_TRIAL_DISTANCE_M
         and type(record.get("fell")) is bool
     )
 
@@ -1176,6 +1194,11 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
         reason = _physics_refusal(summary, summary["evaluations"], "training trials")
         if reason:
             return reason
+    if not ("population" in given or "rounds" in given or "total_steps" in settings):
+        return (
+            "config.json sets no training budget: a population and rounds (a gait search) or "
+            "total_steps (a learner); an untrained gait is a preset's score.json"
+        )
     if "total_steps" in settings:
         total = settings["total_steps"]
         if not _count(total) or total == 0:

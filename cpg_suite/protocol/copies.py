@@ -67,7 +67,8 @@ import zipfile
 
 import numpy as np
 
-from cpg_suite import cpg, feedback
+import cpg_suite
+from cpg_suite import cpg, darwin, feedback, residual
 from cpg_suite.protocol import files as run_files
 from cpg_suite.runfiles import exported
 
@@ -113,6 +114,8 @@ class Fingerprint:
       values: Its numeric values, one array per name (None: not numeric).
       digest: A digest of what is not numeric (code's syntax tree, pickles' bytes).
       in_sample: A gait run's in-sample gait (`best_params.json`) as values, or None.
+      responses: An exported policy's action space and head, and its network's outputs on
+        the DARwIn-OP's own observations (`policy_responses`), or None.
     """
 
     outcomes: tuple
@@ -122,6 +125,7 @@ class Fingerprint:
     values: tuple | None
     digest: str | None
     in_sample: tuple | None = None
+    responses: tuple | None = None  # a policy's (`policy_responses`): (its kind, outputs)
 
 
 # The most a policy's code (`policy_code.py`) may hold: its syntax tree is built to compare
@@ -238,7 +242,61 @@ def fingerprint(run_dir: str, files: tuple[str, ...], trials: list[dict]) -> Fin
     in_sample = None  # a gait run's (`admission.has_in_sample`)
     if files == ("selected_params.json",) and os.path.isfile(os.path.join(run_dir, IN_SAMPLE)):
         in_sample = artifact_values(run_dir, (IN_SAMPLE,))[1]
-    return Fingerprint(outcomes, distances, files[0], structure, values, digest, in_sample)
+    responses = None
+    if files[0].endswith(".npz"):
+        responses = policy_responses(exported.NumpyPolicy.load(os.path.join(run_dir, files[0])))
+    return Fingerprint(
+        outcomes, distances, files[0], structure, values, digest, in_sample, responses
+    )
+
+
+# How many of the DARwIn-OP's own observations a policy's responses are taken on: every
+# `_RESPONSE_EVERY`-th control step of the hand-tuned gait from `darwin_walk`'s seed-0
+# start (a choice; what a policy does there, whatever its arrays look like).
+RESPONSE_OBSERVATIONS = 64
+_RESPONSE_EVERY = 4
+
+
+@functools.lru_cache(maxsize=1)
+def _response_observations() -> dict:
+    """The observations `policy_responses` reads, stacked per key (made once)."""
+    env = cpg_suite.load("darwin_walk", task_kwargs={"random": 0})
+    steps = RESPONSE_OBSERVATIONS * _RESPONSE_EVERY
+    targets = cpg.trajectories(cpg.amplitudes_from("hand_tuned"), steps, env.control_timestep())[0]
+    actions = env.physics.targets_to_action(targets)
+    env.reset()
+    seen = []
+    for t, action in enumerate(actions):
+        observation = env.step(action).observation
+        if t % _RESPONSE_EVERY == 0:
+            seen.append(observation)
+    return {k: np.stack([np.asarray(o[k], np.float64) for o in seen]) for k in seen[0]}
+
+
+def policy_responses(policy: exported.NumpyPolicy) -> tuple | None:
+    """What a policy exported to NumPy does, whatever its arrays look like: its network's
+    outputs before the head (`NumpyPolicy.outputs`) on `RESPONSE_OBSERVATIONS` of the
+    robot's own observations (a fresh CPG's phase features for the `cpg` action space),
+    with its action space and head. Two policies whose responses lie within `VALUE_RTOL`
+    (or a near-copy) are one, however their hidden units are ordered, scaled or nudged
+    (helper-51 admitted a copy of a PPO policy as a new seed: its hidden units permuted and
+    its last layer nudged by 1e-7, so that no array matched by position). None for a
+    policy whose network does not take these observations.
+
+    Args:
+      policy: The policy.
+    """
+    observations = _response_observations()
+    rows = None
+    if policy.action_space == "cpg":
+        rows = residual.ModulatedCPG(RESPONSE_OBSERVATIONS, **policy.scales)
+    features = residual.batch_features(observations, darwin.OBSERVATION_KEYS, rows)
+    try:
+        with np.errstate(all="ignore"):
+            outputs = policy.outputs(features)
+    except ValueError:
+        return None
+    return (policy.action_space, policy.head), outputs.ravel()
 
 
 def same_trials(a: Fingerprint, b: Fingerprint) -> bool:
@@ -254,11 +312,25 @@ def same_artifact(a: Fingerprint, b: Fingerprint) -> bool:
     (`across_kinds`)."""
     if a.kind != b.kind and across_kinds(a, b):
         return True
+    if _same_responses(a, b):
+        return True
     if (a.kind, a.structure, a.digest) != (b.kind, b.structure, b.digest):
         return False
     if a.values is None:
         return True
     return value_distance(a.values, b.values) <= VALUE_RTOL or near_copy(a.values, b.values)
+
+
+def _same_responses(a: Fingerprint, b: Fingerprint) -> bool:
+    """Whether two policies do the same (`policy_responses`: of one action space and head,
+    their outputs within `VALUE_RTOL` or a near-copy)."""
+    if a.responses is None or b.responses is None or a.responses[0] != b.responses[0]:
+        return False
+    ours, theirs = a.responses[1], b.responses[1]
+    if ours.shape != theirs.shape:
+        return False
+    pair = (ours,), (theirs,)
+    return value_distance(*pair) <= VALUE_RTOL or near_copy(*pair)
 
 
 # How far a table may be shifted in time against a gait's and still be compared, control

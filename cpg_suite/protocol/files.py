@@ -161,3 +161,47 @@ def read_text(path: str) -> str:
       ValueError: If it may not be read.
     """
     return read_bytes(path).decode("utf-8")
+
+
+# The deepest folder a walk of a run tree enters, counted from the folder it is given: the
+# board's runs lie at `<method>/<task>/<run>` (3), the study's a little deeper (the deepest
+# shipped run folder is 5 below results/). A choice: deeper folders are listed, not
+# entered (an 1,100-deep tree crashed Python 3.11's recursive `os.walk`: helper-51).
+MAX_TREE_DEPTH = 16
+
+
+def walk_sorted(root: str, too_deep: list[str] | None = None):
+    """`os.walk(root)` top-down in name order, without recursion and at most
+    `MAX_TREE_DEPTH` folders deep: yields `(dirpath, dirnames, filenames)`, both lists
+    sorted, a link to a folder listed among the folders and never entered (as `os.walk`
+    lists and skips it), an unreadable folder skipped (as `os.walk` does).
+
+    Args:
+      root: The folder to walk.
+      too_deep: Where to append each folder left unread for its depth (None: nowhere).
+    """
+    stack = [(root, 0)]
+    while stack:
+        dirpath, depth = stack.pop()
+        try:
+            with os.scandir(dirpath) as entries:
+                listed = [(entry.name, _is_dir(entry)) for entry in entries]
+        except OSError:
+            continue
+        dirnames = sorted(name for name, is_dir in listed if is_dir)
+        yield dirpath, dirnames, sorted(name for name, is_dir in listed if not is_dir)
+        below = [os.path.join(dirpath, n) for n in dirnames]
+        below = [path for path in below if not os.path.islink(path)]
+        if depth >= MAX_TREE_DEPTH:
+            if too_deep is not None:
+                too_deep.extend(below)
+            continue
+        stack.extend((path, depth + 1) for path in reversed(below))
+
+
+def _is_dir(entry: os.DirEntry) -> bool:
+    """`entry.is_dir()` as `os.walk` reads it (a link to a folder counts; an error: no)."""
+    try:
+        return entry.is_dir()
+    except OSError:
+        return False

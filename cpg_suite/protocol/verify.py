@@ -81,6 +81,7 @@ from cpg_suite import cli, cpg, evaluation, feedback, progress, protocol
 from cpg_suite.protocol import admission, audit, sample, sandbox, score
 from cpg_suite.protocol import card as card_stats
 from cpg_suite.protocol.files import refusal as file_problem
+from cpg_suite.protocol.files import walk_sorted
 from cpg_suite.runfiles import exported, runs
 
 ARTIFACTS = os.path.join("results", "protocol", "runs")  # the reference results' artifacts
@@ -132,7 +133,7 @@ class NotAdmitted(ValueError):
 def shipped_runs(root: str) -> list[str]:
     """The run folders under `root` (a summary and a selected gait or policy), sorted."""
     found = []
-    for dirpath, _, names in os.walk(root):
+    for dirpath, _, names in walk_sorted(root):
         if "summary.json" in names and _ARTIFACT_NAMES & set(names):
             found.append(dirpath)
     return sorted(found)
@@ -142,7 +143,7 @@ def run_folders(root: str) -> list[str]:
     """The folders under `root` that look like runs (a summary, a trial table, or a gait or
     policy file), sorted: the shipped runs and those that lack a file (`admission`)."""
     marks = {"summary.json", "trials.csv", *_ARTIFACT_NAMES}
-    return sorted(dirpath for dirpath, _, names in os.walk(root) if marks & set(names))
+    return sorted(dirpath for dirpath, _, names in walk_sorted(root) if marks & set(names))
 
 
 file_digest = admission.file_digest

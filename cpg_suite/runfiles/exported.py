@@ -369,14 +369,19 @@ class NumpyPolicy:
         if self.cpg is not None:
             self.cpg.reset()
 
-    def act(self, features: np.ndarray) -> np.ndarray:
-        """Actions in [−1, 1] for (N, D) flat observations (`mlp`), row by row."""
+    def outputs(self, features: np.ndarray) -> np.ndarray:
+        """The network's output for (N, D) flat observations, before the head makes it an
+        action (`act`): the normalized observations through the MLP, row by row."""
         x = (np.asarray(features, np.float64) - self.mean) / self.std
         if self.clip_obs is not None:
             x = np.clip(x, -self.clip_obs, self.clip_obs)
         if self.input_dtype == "float32":
             x = x.astype(np.float32).astype(np.float64)
-        x = mlp(x, self.layers, ACTIVATIONS[self.activation])
+        return mlp(x, self.layers, ACTIVATIONS[self.activation])
+
+    def act(self, features: np.ndarray) -> np.ndarray:
+        """Actions in [−1, 1] for (N, D) flat observations (`outputs`, then the head)."""
+        x = self.outputs(features)
         if self.head == "normal":
             return np.clip(x, *(self.box or (-1.0, 1.0)))
         return portable.tanh(x[..., : x.shape[-1] // 2])
