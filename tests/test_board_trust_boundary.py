@@ -1055,3 +1055,38 @@ def test_a_policy_with_its_hidden_units_reordered_and_nudged_is_a_copy(tmp_path,
     other = os.path.join(os.path.dirname(original), source.split("/")[-1][:-1] + "1")
     honest = copies.fingerprint(other, (name,), moved)
     assert copies.copy_of(honest, theirs) is None
+
+
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("supply_window", True),
+        ("supply_window", "1"),
+        ("supply_window", " 1e0\n"),
+        ("test_seeds", 50.0),
+        ("test_seeds", True),
+        ("trial_steps", "1000"),
+    ],
+)
+def test_a_card_setting_of_another_json_kind_is_refused(tmp_path, key, value):
+    """`true`, `"1"` and `" 1e0"` passed as the protocol's 1 s supply window (Python's
+    `float` reads them all): a card's settings are held to their JSON kinds."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+    path = os.path.join(run, "config.json")
+    config = json.loads(open(path, encoding="utf-8").read())
+    config["settings"][key] = value
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(config, f)
+    assert key in _board_refusal(run)
+
+
+def test_a_supply_window_spelled_as_a_json_number_is_admitted(tmp_path):
+    """The protocol's window as a JSON integer or float is the same setting."""
+    for value in (1, 1.0):
+        run = _copy(tmp_path / str(value), GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+        path = os.path.join(run, "config.json")
+        config = json.loads(open(path, encoding="utf-8").read())
+        config["settings"]["supply_window"] = value
+        with open(path, "w", encoding="utf-8") as f:
+            json.dump(config, f)
+        assert admission.run_refusal(run) is None

@@ -1020,6 +1020,19 @@ def gait_refusal(path: str, controller: str = "open_loop") -> str | None:
     return f"{os.path.basename(path)}: {problem}" if problem else None
 
 
+def _card_settings_refusal(settings: dict) -> str | None:
+    """Why a config's card settings are not of their JSON kinds (None: they are): the test
+    seeds and trial steps integers, the supply window (where set) a number, never a
+    boolean or text (`true`, `"1"` and `" 1e0"` passed as the 1 s window: helper-51)."""
+    for key in ("test_seeds", "trial_steps"):
+        if type(settings.get(key)) is not int:
+            return f"config.json's {key} is {settings.get(key)!r}, not an integer"
+    window = settings.get("supply_window", electrical.SUPPLY_WINDOW)
+    if type(window) not in (int, float):
+        return f"config.json's supply_window is {window!r}, not a number of seconds"
+    return None
+
+
 def _card_refusal(
     run_dir: str, settings: dict, card: dict, card_version: int, current: int
 ) -> tuple[str | None, list[dict] | None]:
@@ -1029,6 +1042,9 @@ def _card_refusal(
     if not os.path.isfile(os.path.join(run_dir, trials_name)):
         return f"missing {trials_name}", None
     steps = settings["trial_steps"]
+    reason = _card_settings_refusal(settings)
+    if reason:
+        return reason, None
     deviations = card_stats.deviations(
         protocol.card_tiers(settings.get("test_tiers"), card_version),
         settings["test_seeds"],
