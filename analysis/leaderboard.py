@@ -471,9 +471,12 @@ def budget_track(summaries: list[dict]) -> str:
 
 def _budget_ratio(summary: dict) -> float:
     """A run's training budget over the study's (inf where it does not say it as a count:
-    a refused run's summary, which a report of unadmitted cards still reads)."""
-    physics = summary.get("sim_steps", 0)
-    physics = physics / PHYSICS_STEPS if _is_count(physics) else math.inf  # control steps
+    a refused run's summary, which a report of unadmitted cards still reads). What it
+    simulated choosing its gait counts with what it simulated training (`sim_steps` and
+    `validation_sim_steps`: helper-51 chose among 2,500 candidates on 50 seeds, 70 times
+    the study's simulation, on the study's track)."""
+    simulated = [summary.get(k, 0) for k in ("sim_steps", "validation_sim_steps")]
+    physics = sum(simulated) / PHYSICS_STEPS if all(map(_is_count, simulated)) else math.inf
     if "env_steps" in summary:
         steps, given = summary["env_steps"], summary.get("budget_control_steps")
         if not _is_count(steps):

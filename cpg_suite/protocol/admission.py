@@ -1210,6 +1210,9 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
         reason = _physics_refusal(summary, summary["evaluations"], "training trials")
         if reason:
             return reason
+        reason = _validation_refusal(settings, summary)
+        if reason:
+            return reason
     if not ("population" in given or "rounds" in given or "total_steps" in settings):
         return (
             "config.json sets no training budget: a population and rounds (a gait search) or "
@@ -1231,6 +1234,26 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
                 f"{summary['evaluations']} training episodes (evaluations)"
             )
         return _physics_refusal(summary, steps, "training control steps")
+    return None
+
+
+def _validation_refusal(settings: dict, summary: dict) -> str | None:
+    """Why a gait search's validation budget falls short of its config (None: it does
+    not): its `validation_top` best candidates and its final mean, each on
+    `validation_seeds` seeds, take at least `PHYSICS_STEPS_PER_CONTROL_STEP` physics steps
+    each, which it states (`validation_sim_steps`, which its budget track counts)."""
+    top, seeds = settings.get("validation_top", 0), settings.get("validation_seeds", 0)
+    if not (_count(top) and _count(seeds)):
+        return f"config.json's validation_top {top!r} and validation_seeds {seeds!r} are not counts"
+    least = (top + 1) * seeds * PHYSICS_STEPS_PER_CONTROL_STEP
+    if least and "validation_sim_steps" not in summary:
+        return "summary.json does not say how many physics steps choosing its gait took"
+    if summary.get("validation_sim_steps", least) < least:
+        return (
+            f"summary.json claims {summary['validation_sim_steps']} validation physics steps, "
+            f"fewer than its {top + 1} candidates on {seeds} seeds take "
+            f"({PHYSICS_STEPS_PER_CONTROL_STEP} each at least)"
+        )
     return None
 
 
