@@ -1110,3 +1110,25 @@ def test_what_choosing_a_gait_simulated_counts_toward_its_track(tmp_path):
     assert "validation physics steps" in _board_refusal(run)  # claims the shipped run's
     _edit_summary(run, lambda s: s.pop("validation_sim_steps"))
     assert "choosing its gait" in _board_refusal(run)
+
+
+@pytest.mark.parametrize(
+    "source, flag",
+    [(GAIT_RUN, "--population=100"), (GAIT_RUN, "--rounds=400"), (PPO_RUN, "--total_steps=4e7")],
+)
+def test_a_command_that_contradicts_its_budget_settings_is_refused(tmp_path, source, flag):
+    """A run whose `command` trained 100 × 400 beside settings of 50 × 50 ranked on the
+    study's track: the command's budget flags must be its settings' values."""
+    run = _copy(tmp_path, source, "ppo" if source == PPO_RUN else "cem", os.path.basename(source))
+    path = os.path.join(run, "config.json")
+    config = json.loads(open(path, encoding="utf-8").read())
+    key = flag[2:].split("=")[0]
+    words = [w for w in config["command"].split() if not w.startswith(f"--{key}=")]
+    config["command"] = " ".join(words + [flag])
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(config, f)
+    assert f"command says {flag}" in _board_refusal(run)
+    config["command"] = " ".join(words + [f"--{key}={config['settings'][key]}"])
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(config, f)
+    assert admission.run_refusal(run) is None

@@ -994,6 +994,7 @@ def _refusal(run_dir: str, version: int | None, name: str) -> str | None:
         if reason:
             return reason
     reason = training_refusal(run_dir, settings, summary)
+    reason = reason or command_refusal(config.get("command"), settings)
     reason = reason or in_sample_refusal(run_dir, settings, summary)
     if reason:
         return reason
@@ -1234,6 +1235,44 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
                 f"{summary['evaluations']} training episodes (evaluations)"
             )
         return _physics_refusal(summary, steps, "training control steps")
+    return None
+
+
+# The settings a run's budget is read from, which its `command` must not contradict.
+BUDGET_SETTINGS = (
+    "population",
+    "rounds",
+    "eval_seeds",
+    "total_steps",
+    "validation_top",
+    "validation_seeds",
+)
+
+
+def command_refusal(command: object, settings: dict) -> str | None:
+    """Why a config's `command` contradicts its settings on the budget (None: it does not):
+    a `--<key>=<value>` of `BUDGET_SETTINGS` whose value is not the setting's (helper-51:
+    a command of `--population=100 --rounds=400` beside settings of 50 × 50 ranked on the
+    study's track). A command that says nothing of a setting contradicts nothing; one that
+    is consistently false is caught only by running it.
+
+    Args:
+      command: The config's `command` (text, or absent).
+      settings: Its settings.
+    """
+    if command is None:
+        return None
+    if not isinstance(command, str):
+        return f"config.json's command is {type(command).__name__}, not text"
+    for token in command.split():
+        key, equals, value = token.removeprefix("--").partition("=")
+        if not (token.startswith("--") and equals and key in BUDGET_SETTINGS):
+            continue
+        if key not in settings or value != str(settings[key]):
+            return (
+                f"config.json's command says --{key}={shown_name(value)}, its settings "
+                f"{settings.get(key)!r}"
+            )
     return None
 
 
