@@ -1139,13 +1139,13 @@ def in_sample_refusal(run_dir: str, settings: dict, summary: dict) -> str | None
             return f"summary.json's {key} {summary[key]!r} is not its {IN_SAMPLE}'s {theirs!r}"
     if not _trial_record(best) or type(best.get("round")) is not int or best["round"] < 1:
         return (
-            f"its {IN_SAMPLE} does not record a distance_m within {sample.MAX_TRIAL_DISTANCE_M:g} "
-            "m, a fell flag and a round ≥ 1"
+            f"its {IN_SAMPLE} does not record a finite distance_m (within "
+            f"{sample.MAX_TRIAL_DISTANCE_M:g} m), a fell flag and a round ≥ 1"
         )
     tried = summary.get("in_sample")
     if tried is not None and (not _trial_record(tried) or set(tried) != {"distance_m", "fell"}):
         return (
-            f"summary.json's in_sample is not a trial's distance_m (within "
+            f"summary.json's in_sample is not a trial's finite distance_m (within "
             f"{sample.MAX_TRIAL_DISTANCE_M:g} m) and fell flag"
         )
     return None
