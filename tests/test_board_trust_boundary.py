@@ -970,10 +970,11 @@ def test_a_refusal_that_quotes_a_huge_text_is_cut_to_one_short_line(tmp_path):
     ],
     ids=["gait", "policy"],
 )
-def test_a_trained_run_whose_config_sets_no_budget_is_refused(tmp_path, source, dropped):
-    """A run whose config dropped its budget was admitted: a gait search claiming one
-    training trial ranked on the study's track, a learner listed as an untrained
-    reference. Every run folder states a budget; an untrained gait is a preset's card."""
+def test_a_trained_run_whose_settings_dropped_their_budget_is_refused(tmp_path, source, dropped):
+    """A run whose config's settings dropped its budget was admitted: a gait search
+    claiming one training trial ranked on the study's track, a learner listed as an
+    untrained reference. Its command still says what it was given, and a setting the
+    command names must be there with that value (`admission.command_refusal`)."""
     run = _copy(tmp_path, source, "ppo" if source == PPO_RUN else "cem", os.path.basename(source))
     path = os.path.join(run, "config.json")
     config = json.loads(open(path, encoding="utf-8").read())
@@ -981,8 +982,15 @@ def test_a_trained_run_whose_config_sets_no_budget_is_refused(tmp_path, source, 
         config["settings"].pop(key, None)
     with open(path, "w", encoding="utf-8") as f:
         json.dump(config, f)
-    _edit_summary(run, lambda s: [s.pop(k, None) for k in ("env_steps", "evaluations")])
-    assert "sets no training budget" in _board_refusal(run)
+    _edit_summary(
+        run,
+        lambda s: (
+            s.update(evaluations=1, sim_steps=8)
+            if source == GAIT_RUN
+            else [s.pop(k, None) for k in ("env_steps", "evaluations")]
+        ),
+    )
+    assert f"command says --{dropped[0]}=" in _board_refusal(run)
 
 
 @pytest.mark.parametrize("distance", [99.0, -40.0, 32.5])

@@ -1214,11 +1214,6 @@ def training_refusal(run_dir: str, settings: dict, summary: dict) -> str | None:
         reason = _validation_refusal(settings, summary)
         if reason:
             return reason
-    if not ("population" in given or "rounds" in given or "total_steps" in settings):
-        return (
-            "config.json sets no training budget: a population and rounds (a gait search) or "
-            "total_steps (a learner); an untrained gait is a preset's score.json"
-        )
     if "total_steps" in settings:
         total = settings["total_steps"]
         if not _count(total) or total == 0:
