@@ -388,6 +388,12 @@ LAST_ROLLOUT = 0.02
 # model (`admission.PHYSICS_STEPS_PER_CONTROL_STEP`): a run that simulated more than its
 # declared budget allows counts by what it simulated.
 PHYSICS_STEPS = admission.PHYSICS_STEPS_PER_CONTROL_STEP
+# Physics steps a run may simulate choosing what it reports (validation) beside its
+# training budget: a tenth of the study's training simulation (2,500,000 control steps × 8).
+# A choice: the protocol's own validation takes at most this (PPO's 10 seeds every 100,000
+# training steps: 2,000,000; a gait search's 4 candidates on 10 seeds: 320,000); what a
+# run simulates beyond it counts toward its track.
+VALIDATION_ALLOWANCE = STUDY_CONTROL_STEPS * PHYSICS_STEPS // 10
 TRACKS = ("study", "4x", "over_4x")
 MIN_SEEDS = 5  # fewer seeds: provisional, not ranked
 DARWIN_FIELDS = [
@@ -472,11 +478,14 @@ def budget_track(summaries: list[dict]) -> str:
 def _budget_ratio(summary: dict) -> float:
     """A run's training budget over the study's (inf where it does not say it as a count:
     a refused run's summary, which a report of unadmitted cards still reads). What it
-    simulated choosing its gait counts with what it simulated training (`sim_steps` and
-    `validation_sim_steps`: helper-51 chose among 2,500 candidates on 50 seeds, 70 times
-    the study's simulation, on the study's track)."""
-    simulated = [summary.get(k, 0) for k in ("sim_steps", "validation_sim_steps")]
-    physics = sum(simulated) / PHYSICS_STEPS if all(map(_is_count, simulated)) else math.inf
+    simulated choosing its gait or policy beyond `VALIDATION_ALLOWANCE` counts with what it
+    simulated training (`validation_sim_steps`, `sim_steps`: helper-51 chose among 2,500
+    candidates on 50 seeds, 70 times the study's simulation, on the study's track)."""
+    training, choosing = (summary.get(k, 0) for k in ("sim_steps", "validation_sim_steps"))
+    if _is_count(training) and _is_count(choosing):
+        physics = (training + max(0, choosing - VALIDATION_ALLOWANCE)) / PHYSICS_STEPS
+    else:
+        physics = math.inf  # control steps
     if "env_steps" in summary:
         steps, given = summary["env_steps"], summary.get("budget_control_steps")
         if not _is_count(steps):

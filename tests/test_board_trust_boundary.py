@@ -1102,14 +1102,17 @@ def test_a_supply_window_spelled_as_a_json_number_is_admitted(tmp_path):
 
 def test_what_choosing_a_gait_simulated_counts_toward_its_track(tmp_path):
     """Choosing among 2,500 candidates on 50 validation seeds (70 times the study's
-    simulation) ranked on the study's track: the track counts `validation_sim_steps` with
-    `sim_steps`; a gait search states it, no less than its config's validation takes."""
+    simulation) ranked on the study's track: the track counts `validation_sim_steps`
+    beyond the protocol's allowance with `sim_steps`; a gait search states it, no less than
+    its config's validation takes."""
     run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
     summary = json.loads(open(os.path.join(run, "summary.json"), encoding="utf-8").read())
     assert leaderboard.budget_track([summary]) == "study"
     assert leaderboard.budget_track([{**summary, "validation_sim_steps": 1_000_400_000}]) == (
         "over_4x"
     )
+    allowed = leaderboard.VALIDATION_ALLOWANCE
+    assert leaderboard.budget_track([{**summary, "validation_sim_steps": allowed}]) == "study"
     path = os.path.join(run, "config.json")
     config = json.loads(open(path, encoding="utf-8").read())
     config["settings"].update(validation_top=2500, validation_seeds=50)
