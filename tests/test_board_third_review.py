@@ -93,6 +93,7 @@ def test_a_ledger_inside_a_submitted_tree_puts_no_run_on_record(tmp_path):
     mine = _copy(tmp_path, CMAES_RANDOMIZED, "zz", "cmaes", "darwin_walk", "K50_s1_seed0")
     config = _read(mine / "config.json")
     config["settings"].update(task="darwin_walk", eval_seeds=1)
+    config["command"] = config["command"].replace("--eval_seeds=2", "--eval_seeds=1")
     config["environment"]["started_utc"] = "2000-01-01T00:00:00Z"
     _write(mine / "config.json", config)
     summary = _read(mine / "summary.json")
