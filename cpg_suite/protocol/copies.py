@@ -294,8 +294,8 @@ def policy_responses(policy: exported.NumpyPolicy) -> tuple | None:
     try:
         with np.errstate(all="ignore"):
             outputs = policy.outputs(features)
-    except ValueError:
-        return None
+    except (ValueError, IndexError, TypeError, ArithmeticError):
+        return None  # admission refuses such a policy before comparing it
     return (policy.action_space, policy.head), outputs.ravel()
 
 
