@@ -36,7 +36,6 @@ import math
 import os
 import sys
 from collections import defaultdict
-from collections.abc import Iterator
 
 import numpy as np
 from absl import flags
@@ -116,19 +115,10 @@ def _add_score_card(dirpath: str, found: list[dict], skipped: list[str]) -> None
     )
 
 
-def walk_sorted(
-    root: str, too_deep: list[str] | None = None
-) -> Iterator[tuple[str, list[str], list[str]]]:
-    """`os.walk` in name order, without recursion and at most `files.MAX_TREE_DEPTH`
-    folders deep (`files.walk_sorted`): the board's sums and bootstrap draws take the runs
-    in an order that does not depend on the file system's listing order (yields `dirpath`,
-    its folder names, which it enters unless they are links, and its file names, sorted).
-
-    Args:
-      root: The run tree.
-      too_deep: Where to append each folder left unread for its depth (None: nowhere).
-    """
-    return files.walk_sorted(root, too_deep)
+# The run tree in name order, without recursion and at most `files.MAX_TREE_DEPTH` deep:
+# the board's sums and bootstrap draws take the runs in an order that does not depend on
+# the file system's listing order (one definition: `files.walk_sorted`, which verify uses).
+walk_sorted = files.walk_sorted
 
 
 def find_runs(root: str) -> tuple[list[dict], list[str]]:

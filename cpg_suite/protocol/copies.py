@@ -155,6 +155,19 @@ def _arrays(named: dict) -> tuple[tuple, tuple]:
     return structure, values
 
 
+def _load_policy(path: str) -> exported.NumpyPolicy:
+    """A policy exported to NumPy, each of its arrays unpacking to at most a run file's
+    size (`_require_bounded_zip`), read as the scorer reads it."""
+    _require_bounded_zip(path)
+    return exported.NumpyPolicy.load(path)
+
+
+def _policy_arrays(policy: exported.NumpyPolicy) -> tuple[tuple, tuple]:
+    """A policy's structure and values (`_arrays`) as the scorer reads it: what it does not
+    read (an extra array, a default spelled out) is no part of the policy."""
+    return _arrays({**policy.arrays(), "action_space": policy.action_space})
+
+
 def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple | None, str | None]:
     """A run's gait or policy as values: `(structure, values, digest)` (see `Fingerprint`).
 
@@ -171,11 +184,7 @@ def artifact_values(run_dir: str, files: tuple[str, ...]) -> tuple[tuple, tuple 
     if name.endswith(".json"):
         return (*_arrays({"params": feedback.load_params(path)}), None)
     if name.endswith(".npz"):
-        _require_bounded_zip(path)  # each array unpacks to at most a run file's size
-        # As the scorer reads it: what it does not read (an extra array, a default spelled
-        # out) is no part of the policy.
-        policy = exported.NumpyPolicy.load(path)
-        return (*_arrays({**policy.arrays(), "action_space": policy.action_space}), None)
+        return (*_policy_arrays(_load_policy(path)), None)
     if name.endswith(".npy"):
         return (*_arrays({"actions": exported.load_npy(path)}), None)  # header checked first
     if name.endswith(".py"):
@@ -238,13 +247,16 @@ def fingerprint(run_dir: str, files: tuple[str, ...], trials: list[dict]) -> Fin
     """
     outcomes = tuple((t["tier"], t["seed"], t["fell"], t["fall_step"], t["cause"]) for t in trials)
     distances = np.array([t["distance_m"] for t in trials], dtype=np.float64)
-    structure, values, digest = artifact_values(run_dir, files)
+    responses = None
+    if files[0].endswith(".npz"):  # read once: its arrays as values, and what it does
+        policy = _load_policy(os.path.join(run_dir, files[0]))
+        (structure, values), digest = _policy_arrays(policy), None
+        responses = policy_responses(policy)
+    else:
+        structure, values, digest = artifact_values(run_dir, files)
     in_sample = None  # a gait run's (`admission.has_in_sample`)
     if files == ("selected_params.json",) and os.path.isfile(os.path.join(run_dir, IN_SAMPLE)):
         in_sample = artifact_values(run_dir, (IN_SAMPLE,))[1]
-    responses = None
-    if files[0].endswith(".npz"):
-        responses = policy_responses(exported.NumpyPolicy.load(os.path.join(run_dir, files[0])))
     return Fingerprint(
         outcomes, distances, files[0], structure, values, digest, in_sample, responses
     )
