@@ -1143,3 +1143,31 @@ def test_a_command_that_contradicts_its_budget_settings_is_refused(tmp_path, sou
     with open(path, "w", encoding="utf-8") as f:
         json.dump(config, f)
     assert admission.run_refusal(run) is None
+
+
+@pytest.mark.parametrize(
+    "flag",
+    [
+        "--eval_seeds 2",
+        "-eval_seeds=2",
+        "-eval_seeds 2",
+        '"--eval_seeds=2"',
+        "--eval_seeds\u00a0=2",
+        "--flagfile=f.txt",
+    ],
+)
+def test_every_spelling_of_a_budget_flag_is_read_as_absl_reads_it(tmp_path, flag):
+    """A seventh reading (helper-52): `--eval_seeds 2`, `-eval_seeds=2`, a quoted flag and a
+    flag file passed the command check beside settings of 1; `--eval_seeds=01` is 1."""
+    run = _copy(tmp_path, GAIT_RUN, "cem", os.path.basename(GAIT_RUN))
+    path = os.path.join(run, "config.json")
+    config = json.loads(open(path, encoding="utf-8").read())
+    words = [w for w in config["command"].split() if not w.startswith("--eval_seeds=")]
+    config["command"] = " ".join(words + [flag])
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(config, f)
+    assert "command" in _board_refusal(run)
+    config["command"] = " ".join(words + ["--eval_seeds=01"])
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(config, f)
+    assert admission.run_refusal(run) is None

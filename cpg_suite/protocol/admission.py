@@ -54,6 +54,7 @@ import json
 import math
 import os
 import re
+import shlex
 from collections.abc import Iterable
 
 import numpy as np
@@ -1259,16 +1260,35 @@ def command_refusal(command: object, settings: dict) -> str | None:
         return None
     if not isinstance(command, str):
         return f"config.json's command is {type(command).__name__}, not text"
-    for token in command.split():
-        key, equals, value = token.removeprefix("--").partition("=")
-        if not (token.startswith("--") and equals and key in BUDGET_SETTINGS):
+    try:
+        tokens = shlex.split(command)
+    except ValueError:
+        return "config.json's command is not a shell command line"
+    for i, token in enumerate(tokens):
+        key, equals, value = token.lstrip("-").partition("=")
+        if not token.startswith("-"):
             continue
-        if key not in settings or value != str(settings[key]):
+        if key.strip() == "flagfile":  # flags the board cannot read
+            return "config.json's command reads its flags from a file (--flagfile)"
+        key = key.strip()
+        if key not in BUDGET_SETTINGS:
+            continue
+        if not equals:  # `--key value`, as absl reads it too
+            value = tokens[i + 1] if i + 1 < len(tokens) else ""
+        if key not in settings or not _same_number(value, settings[key]):
             return (
                 f"config.json's command says --{key}={shown_name(value)}, its settings "
                 f"{settings.get(key)!r}"
             )
     return None
+
+
+def _same_number(text: str, setting: object) -> bool:
+    """Whether a command's flag value is the setting's integer (`050` is 50, as absl reads it)."""
+    try:
+        return type(setting) is int and int(text.strip()) == setting
+    except ValueError:
+        return False
 
 
 def _validation_refusal(settings: dict, summary: dict) -> str | None:
